@@ -1,0 +1,2 @@
+//! Host link: framed, checksummed commands and telemetry over the virtual
+//! COM port.
