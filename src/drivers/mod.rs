@@ -1,2 +1,5 @@
 //! Device drivers, generic over `embedded-hal` traits and tested on the host
 //! with `embedded-hal-mock`.
+
+pub mod ms5837;
+pub mod pump;
