@@ -1,6 +1,8 @@
-//! The board binary. On the STM32 target it hands over to [`urechis::board`];
-//! on any other target it only explains itself, so host builds of the whole
-//! workspace (tests, host-sim) stay green.
+//! The board binary. On the STM32 target it wires the NUCLEO-F446RE
+//! (interrupts, clocks, drivers from pins, one task per role; the tasks and
+//! the wiring table are in [`urechis::board`]); on any other target it only
+//! explains itself, so host builds of the whole workspace (tests, host-sim)
+//! stay green.
 #![cfg_attr(all(target_os = "none", feature = "board"), no_std)]
 #![cfg_attr(all(target_os = "none", feature = "board"), no_main)]
 
@@ -10,4 +12,154 @@ fn main() {
         "urechis firmware: build for the board with `cargo run --release` \
          (target thumbv7em-none-eabihf); on the host use host-sim (`cargo demo`)."
     );
+}
+
+#[cfg(all(target_os = "none", feature = "board"))]
+mod firmware {
+    use defmt_rtt as _;
+    use embassy_executor::Spawner;
+    use embassy_stm32::gpio::{Input, Level, Output, Pull, Speed};
+    use embassy_stm32::time::Hertz;
+    use embassy_stm32::wdg::IndependentWatchdog;
+    use embassy_stm32::{bind_interrupts, dma, i2c, peripherals, usart, Config};
+    use embassy_time::Duration;
+    use panic_probe as _;
+    use static_cell::StaticCell;
+    use urechis::board::control::{control_task, ControlOutputs, WATCHDOG_TIMEOUT_US};
+    use urechis::board::link::{rx_task, tx_task, BAUD_RATE, RX_RING_BYTES};
+    use urechis::board::pump::{pump_task, Pump};
+    use urechis::board::sensor::{sensor_task, Sensor, MODEL, OSR};
+    use urechis::controller::{Controller, Params};
+    use urechis::drivers::pump::{PumpConfig, PumpPins};
+    use urechis::table::generated::TABLE;
+
+    // DMA streams per RM0390 table 28: I2C1 RX stream 0 / TX stream 7,
+    // USART2 RX stream 5 / TX stream 6 (all DMA1, channel chosen by the HAL).
+    bind_interrupts!(struct Irqs {
+        I2C1_EV => i2c::EventInterruptHandler<peripherals::I2C1>;
+        I2C1_ER => i2c::ErrorInterruptHandler<peripherals::I2C1>;
+        USART2 => usart::InterruptHandler<peripherals::USART2>;
+        DMA1_STREAM0 => dma::InterruptHandler<peripherals::DMA1_CH0>;
+        DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
+        DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
+        DMA1_STREAM7 => dma::InterruptHandler<peripherals::DMA1_CH7>;
+    });
+
+    /// I²C bus speed: 100 kHz tolerates the capacitance of a cable to a
+    /// buried sensor.
+    const I2C_HZ: u32 = 100_000;
+
+    /// A hung bus transaction gives up after this long (ms), well inside
+    /// one control period.
+    const I2C_TIMEOUT_MS: u64 = 5;
+
+    #[embassy_executor::main]
+    async fn main(spawner: Spawner) {
+        let mut config = Config::default();
+        {
+            // HSI 16 MHz / 16 × 168 / 2 = 84 MHz; no overdrive needed, flash
+            // wait states set by the HAL. APB1 ≤ 45 MHz on the F446.
+            use embassy_stm32::rcc::*;
+            config.rcc.hsi = true;
+            config.rcc.pll_src = PllSource::HSI;
+            config.rcc.pll = Some(Pll {
+                prediv: PllPreDiv::DIV16,
+                mul: PllMul::MUL168,
+                divp: Some(PllPDiv::DIV2),
+                divq: None,
+                divr: None,
+            });
+            config.rcc.sys = Sysclk::PLL1_P;
+            config.rcc.ahb_pre = AHBPrescaler::DIV1;
+            config.rcc.apb1_pre = APBPrescaler::DIV2;
+            config.rcc.apb2_pre = APBPrescaler::DIV1;
+        }
+        // Read before init: the watchdog's reset flag says whether the last
+        // run ended in a stalled control loop.
+        let csr = embassy_stm32::pac::RCC.csr().read();
+        let p = embassy_stm32::init(config);
+        embassy_stm32::pac::RCC.csr().modify(|w| w.set_rmvf(true));
+        defmt::info!(
+            "urechis {} (reset: watchdog {}, pin {}, power-on {})",
+            env!("CARGO_PKG_VERSION"),
+            csr.wdgrstf(),
+            csr.padrstf(),
+            csr.porrstf()
+        );
+
+        // Table: a bad one is logged here; the controller refuses `Start`.
+        match TABLE.verify() {
+            Ok(()) => defmt::info!(
+                "table: {} depths x {} diameters, CRC {=u32:#010x}, placeholder {}",
+                TABLE.depths_mm.len(),
+                TABLE.diameters_mm.len(),
+                TABLE.checksum,
+                TABLE.placeholder
+            ),
+            Err(e) => defmt::error!("table: verification failed ({}): the cycle cannot start", e),
+        }
+
+        // Safe levels first: valve de-energised (open, vented), advance off,
+        // stepper driver disabled (ENABLE is active low), STEP low.
+        let relief_valve = Output::new(p.PA8, Level::Low, Speed::Low);
+        let advance_drive = Output::new(p.PA9, Level::Low, Speed::Low);
+        let enable = Output::new(p.PB5, Level::High, Speed::Low);
+        let step = Output::new(p.PA10, Level::Low, Speed::VeryHigh);
+        let dir = Output::new(p.PB3, Level::Low, Speed::Low);
+        let end_empty = Input::new(p.PB4, Pull::Up);
+        let end_full = Input::new(p.PB10, Pull::Up);
+
+        let pins = PumpPins {
+            step,
+            dir,
+            enable,
+            end_empty,
+            end_full,
+        };
+        let pump: Pump = match Pump::new(pins, PumpConfig::default()) {
+            Ok(pump) => pump,
+            Err(rejected) => defmt::panic!("pump: config rejected: {}", rejected.error),
+        };
+
+        let mut i2c_config = i2c::Config::default();
+        i2c_config.frequency = Hertz(I2C_HZ);
+        i2c_config.timeout = Duration::from_millis(I2C_TIMEOUT_MS);
+        let i2c = i2c::I2c::new(
+            p.I2C1, p.PB8, p.PB9, p.DMA1_CH7, p.DMA1_CH0, Irqs, i2c_config,
+        );
+        let sensor = Sensor::new(i2c, MODEL, OSR);
+
+        let mut uart_config = usart::Config::default();
+        uart_config.baudrate = BAUD_RATE;
+        let uart = match usart::Uart::new(
+            p.USART2,
+            p.PA3,
+            p.PA2,
+            p.DMA1_CH6,
+            p.DMA1_CH5,
+            Irqs,
+            uart_config,
+        ) {
+            Ok(uart) => uart,
+            Err(e) => defmt::panic!("usart2: {}", e),
+        };
+        let (tx, rx) = uart.split();
+        static RX_RING: StaticCell<[u8; RX_RING_BYTES]> = StaticCell::new();
+        let rx = rx.into_ring_buffered(RX_RING.init([0; RX_RING_BYTES]));
+
+        let controller = Controller::new(Params::DEFAULT, TABLE);
+        let outputs = ControlOutputs {
+            relief_valve,
+            advance_drive,
+            watchdog: IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US),
+        };
+
+        // Each task fits its pool of one: spawning can only fail on a second
+        // spawn of the same task, which this function never does.
+        spawner.spawn(defmt::unwrap!(pump_task(pump)));
+        spawner.spawn(defmt::unwrap!(sensor_task(sensor)));
+        spawner.spawn(defmt::unwrap!(tx_task(tx)));
+        spawner.spawn(defmt::unwrap!(rx_task(rx)));
+        spawner.spawn(defmt::unwrap!(control_task(controller, outputs)));
+    }
 }

@@ -1,0 +1,102 @@
+//! The sensor task: an MS5837 on I²C1, read once per control period, its
+//! gauge pressure published in [`SAMPLE`] (latest wins).
+
+use core::num::NonZeroU8;
+
+use embassy_stm32::i2c::{I2c, Master};
+use embassy_stm32::mode::Async;
+use embassy_time::{Delay, Duration, Ticker, Timer};
+
+use super::channels::SAMPLE;
+use super::now_ms;
+use crate::controller::{PressureSample, CONTROL_PERIOD_MS};
+use crate::drivers::ms5837::{GaugeZero, Model, Ms5837, Osr};
+
+/// The sensor's I²C bus as the board builds it.
+pub type SensorBus = I2c<'static, Async, Master>;
+
+/// The sensor as the board builds it.
+pub type Sensor = Ms5837<SensorBus>;
+
+/// The part fitted: 0..2 bar absolute, 1 Pa resolution, ample for a head
+/// buried a few decimetres deep.
+pub const MODEL: Model = Model::Bar02;
+
+/// Oversampling: two conversions (pressure, temperature) must fit in one
+/// control period with the bus traffic. OSR 1024 takes at most
+/// 2 × 2.28 ms = 4.56 ms plus about 1.6 ms of 100 kHz I²C, 6.2 ms in 10 ms;
+/// OSR 2048 (2 × 4.54 ms + 1.6 ms = 10.7 ms) would not fit.
+pub const OSR: Osr = Osr::Osr1024;
+
+/// Readings averaged for the gauge zero at boot (about 0.16 s).
+pub const TARE_SAMPLES: NonZeroU8 = match NonZeroU8::new(32) {
+    Some(n) => n,
+    None => NonZeroU8::MIN,
+};
+
+/// Wait between attempts while the sensor does not answer at boot (ms).
+pub const RETRY_MS: u64 = 100;
+
+// The read must fit the period it is published in.
+const _: () = assert!(2 * OSR.max_conversion_us() + 1_600 < CONTROL_PERIOD_MS * 1_000);
+
+/// Initialises the part (reset, PROM + CRC-4), captures the gauge zero with
+/// the actuator at rest in free water, then publishes one gauge reading
+/// every [`CONTROL_PERIOD_MS`].
+///
+/// Until the zero is captured it publishes [`PressureSample::BusError`]
+/// after each failed attempt, so the controller sees a missing sensor
+/// rather than a reading against a wrong zero. After a failed read it
+/// publishes `BusError` and re-initialises the part (a brown-out loses the
+/// PROM image and leaves ADC READ returning 0); the zero is kept.
+#[embassy_executor::task]
+pub async fn sensor_task(mut sensor: Sensor) -> ! {
+    let mut delay = Delay;
+    let zero = tare(&mut sensor, &mut delay).await;
+    defmt::info!("sensor: gauge zero {} kPa absolute", zero.zero_kpa());
+
+    let mut ticker = Ticker::every(Duration::from_millis(u64::from(CONTROL_PERIOD_MS)));
+    let mut needs_init = false;
+    loop {
+        ticker.next().await;
+        if needs_init {
+            if let Err(e) = sensor.init(&mut delay).await {
+                defmt::warn!("sensor: re-init failed: {}", e);
+                SAMPLE.sender().send(PressureSample::BusError);
+                continue;
+            }
+            needs_init = false;
+        }
+        let sample = match sensor.read(&mut delay).await {
+            Ok(m) => PressureSample::Reading {
+                pressure_kpa: zero.gauge_kpa(m.pressure_kpa),
+                taken_ms: now_ms(),
+            },
+            Err(e) => {
+                defmt::warn!("sensor: read failed: {}", e);
+                needs_init = true;
+                PressureSample::BusError
+            }
+        };
+        SAMPLE.sender().send(sample);
+    }
+}
+
+/// Initialises the part and captures the gauge zero, retrying every
+/// [`RETRY_MS`] until both succeed.
+async fn tare(sensor: &mut Sensor, delay: &mut Delay) -> GaugeZero {
+    loop {
+        let attempt = match sensor.init(delay).await {
+            Ok(_) => sensor.capture_zero(delay, TARE_SAMPLES).await,
+            Err(e) => Err(e),
+        };
+        match attempt {
+            Ok(zero) => return zero,
+            Err(e) => {
+                defmt::warn!("sensor: init/tare failed: {}", e);
+                SAMPLE.sender().send(PressureSample::BusError);
+                Timer::after_millis(RETRY_MS).await;
+            }
+        }
+    }
+}
