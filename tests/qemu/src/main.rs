@@ -15,26 +15,11 @@ mod qemu {
 
     use cortex_m_rt::entry;
     use cortex_m_semihosting::{debug, hprint, hprintln};
+    use urechis::selftest::SCENARIOS;
 
     /// Scenarios finished so far, kept where the panic handler can read them.
     static PASSED: AtomicU32 = AtomicU32::new(0);
     static FAILED: AtomicU32 = AtomicU32::new(0);
-
-    /// A scenario as the harness sees it: a name and a body that reports
-    /// why it failed.
-    struct Scenario {
-        name: &'static str,
-        run: fn() -> Result<(), &'static str>,
-    }
-
-    fn passes() -> Result<(), &'static str> {
-        Ok(())
-    }
-
-    const SCENARIOS: &[Scenario] = &[Scenario {
-        name: "harness_passes",
-        run: passes,
-    }];
 
     #[entry]
     fn main() -> ! {
@@ -73,8 +58,9 @@ mod qemu {
         }
     }
 
-    /// A panic is a failed run: say where, then exit non-zero (panic-probe
-    /// would spin in a fault loop under QEMU and the script would time out).
+    /// A panic fails the scenario that raised it and ends the run (there is
+    /// no unwinding to go on with): say where, print the count line, exit
+    /// non-zero. panic-probe would spin in a fault loop under QEMU instead.
     #[panic_handler]
     fn panic(info: &core::panic::PanicInfo) -> ! {
         hprintln!("FAILED: {}", info);
