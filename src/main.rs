@@ -22,7 +22,6 @@ mod firmware {
     use embassy_stm32::time::Hertz;
     use embassy_stm32::wdg::IndependentWatchdog;
     use embassy_stm32::{bind_interrupts, dma, i2c, peripherals, usart, Config};
-    use embassy_time::Duration;
     use panic_probe as _;
     use static_cell::StaticCell;
     use urechis::board::control::{control_task, ControlOutputs, WATCHDOG_TIMEOUT_US};
@@ -48,10 +47,6 @@ mod firmware {
     /// I²C bus speed: 100 kHz tolerates the capacitance of a cable to a
     /// buried sensor.
     const I2C_HZ: u32 = 100_000;
-
-    /// A hung bus transaction gives up after this long (ms), well inside
-    /// one control period.
-    const I2C_TIMEOUT_MS: u64 = 5;
 
     #[embassy_executor::main]
     async fn main(spawner: Spawner) {
@@ -123,7 +118,6 @@ mod firmware {
 
         let mut i2c_config = i2c::Config::default();
         i2c_config.frequency = Hertz(I2C_HZ);
-        i2c_config.timeout = Duration::from_millis(I2C_TIMEOUT_MS);
         let i2c = i2c::I2c::new(
             p.I2C1, p.PB8, p.PB9, p.DMA1_CH7, p.DMA1_CH0, Irqs, i2c_config,
         );

@@ -3,14 +3,14 @@
 
 use core::num::NonZeroU8;
 
-use embassy_stm32::i2c::{I2c, Master};
+use embassy_stm32::i2c::{self, I2c, Master};
 use embassy_stm32::mode::Async;
-use embassy_time::{Delay, Duration, Ticker, Timer};
+use embassy_time::{with_timeout, Delay, Duration, Ticker, Timer};
 
 use super::channels::SAMPLE;
 use super::now_ms;
 use crate::controller::{PressureSample, CONTROL_PERIOD_MS};
-use crate::drivers::ms5837::{GaugeZero, Model, Ms5837, Osr};
+use crate::drivers::ms5837::{Error, GaugeZero, Model, Ms5837, Osr};
 
 /// The sensor's I²C bus as the board builds it.
 pub type SensorBus = I2c<'static, Async, Master>;
@@ -37,8 +37,34 @@ pub const TARE_SAMPLES: NonZeroU8 = match NonZeroU8::new(32) {
 /// Wait between attempts while the sensor does not answer at boot (ms).
 pub const RETRY_MS: u64 = 100;
 
-// The read must fit the period it is published in.
-const _: () = assert!(2 * OSR.max_conversion_us() + 1_600 < CONTROL_PERIOD_MS * 1_000);
+/// Longest a reading may take before it counts as a bus error (ms): the
+/// HAL's async I²C has no timeout of its own, and a part holding the bus
+/// would otherwise freeze this task (the controller would still see the
+/// samples go stale).
+pub const READ_TIMEOUT_MS: u64 = 9;
+
+/// Longest an init (reset wait 10 ms + PROM) may take (ms).
+pub const INIT_TIMEOUT_MS: u64 = 50;
+
+/// Longest the tare may take (ms): [`TARE_SAMPLES`] readings of at most
+/// 6.2 ms each, with margin.
+pub const TARE_TIMEOUT_MS: u64 = 1_000;
+
+/// Why a sensor operation produced no value.
+#[derive(Clone, Copy, Debug, defmt::Format)]
+enum SensorFailure {
+    /// The driver reported an error.
+    Driver(Error<i2c::Error>),
+    /// The bus did not complete in time.
+    Timeout,
+}
+
+// The read must fit its timeout, and the timeout the period it is
+// published in.
+const _: () = assert!(
+    2 * OSR.max_conversion_us() + 1_600 < READ_TIMEOUT_MS as u32 * 1_000
+        && READ_TIMEOUT_MS as u32 <= CONTROL_PERIOD_MS
+);
 
 /// Initialises the part (reset, PROM + CRC-4), captures the gauge zero with
 /// the actuator at rest in free water, then publishes one gauge reading
@@ -46,9 +72,11 @@ const _: () = assert!(2 * OSR.max_conversion_us() + 1_600 < CONTROL_PERIOD_MS * 
 ///
 /// Until the zero is captured it publishes [`PressureSample::BusError`]
 /// after each failed attempt, so the controller sees a missing sensor
-/// rather than a reading against a wrong zero. After a failed read it
-/// publishes `BusError` and re-initialises the part (a brown-out loses the
-/// PROM image and leaves ADC READ returning 0); the zero is kept.
+/// rather than a reading against a wrong zero. After a read that fails or
+/// does not finish within [`READ_TIMEOUT_MS`] it publishes `BusError` and
+/// re-initialises the part (a brown-out loses the PROM image and leaves ADC
+/// READ returning 0); the zero is kept. A part that holds SDA low is not
+/// recovered here: the controller faults on the bus errors.
 #[embassy_executor::task]
 pub async fn sensor_task(mut sensor: Sensor) -> ! {
     let mut delay = Delay;
@@ -60,14 +88,14 @@ pub async fn sensor_task(mut sensor: Sensor) -> ! {
     loop {
         ticker.next().await;
         if needs_init {
-            if let Err(e) = sensor.init(&mut delay).await {
+            if let Err(e) = bounded(INIT_TIMEOUT_MS, sensor.init(&mut delay)).await {
                 defmt::warn!("sensor: re-init failed: {}", e);
                 SAMPLE.sender().send(PressureSample::BusError);
                 continue;
             }
             needs_init = false;
         }
-        let sample = match sensor.read(&mut delay).await {
+        let sample = match bounded(READ_TIMEOUT_MS, sensor.read(&mut delay)).await {
             Ok(m) => PressureSample::Reading {
                 pressure_kpa: zero.gauge_kpa(m.pressure_kpa),
                 taken_ms: now_ms(),
@@ -86,8 +114,8 @@ pub async fn sensor_task(mut sensor: Sensor) -> ! {
 /// [`RETRY_MS`] until both succeed.
 async fn tare(sensor: &mut Sensor, delay: &mut Delay) -> GaugeZero {
     loop {
-        let attempt = match sensor.init(delay).await {
-            Ok(_) => sensor.capture_zero(delay, TARE_SAMPLES).await,
+        let attempt = match bounded(INIT_TIMEOUT_MS, sensor.init(delay)).await {
+            Ok(_) => bounded(TARE_TIMEOUT_MS, sensor.capture_zero(delay, TARE_SAMPLES)).await,
             Err(e) => Err(e),
         };
         match attempt {
@@ -98,5 +126,18 @@ async fn tare(sensor: &mut Sensor, delay: &mut Delay) -> GaugeZero {
                 Timer::after_millis(RETRY_MS).await;
             }
         }
+    }
+}
+
+/// Runs a driver operation with a deadline; dropping the HAL future on
+/// timeout stops its DMA transfer.
+async fn bounded<T>(
+    limit_ms: u64,
+    op: impl core::future::Future<Output = Result<T, Error<i2c::Error>>>,
+) -> Result<T, SensorFailure> {
+    match with_timeout(Duration::from_millis(limit_ms), op).await {
+        Ok(Ok(value)) => Ok(value),
+        Ok(Err(e)) => Err(SensorFailure::Driver(e)),
+        Err(_) => Err(SensorFailure::Timeout),
     }
 }
