@@ -1,41 +1,92 @@
 //! Cycle parameters with validated ranges. A set with any field out of range
 //! is rejected whole: the controller never runs half of a new set.
+//!
+//! Every field has a closed range in [`RANGES`] (also given in each field's
+//! doc). [`Params::validate`] checks every field against it (NaN fails every
+//! range) plus one cross-field rule: `max_pressure_kpa < sensor_max_kpa`, so
+//! the limit is always inside what the sensor can measure (reported as
+//! [`ParamField::MaxPressureKpa`]).
 
 use serde::{Deserialize, Serialize};
 
 /// Tunable parameters of the burrowing cycle and its safety limits.
+///
+/// [`Params::DEFAULT`] suits the paper's actuator (D0 = 18.7 mm, 20 mm
+/// expansion zone, expanded to 25 mm at 40 mm depth): expand at 2 mL/s
+/// (about 4.3 mL, 2.2 s), hold 0.5 s, shrink at 4 mL/s (1.1 s), advance 1 s,
+/// so one cycle takes about 5 s as in the paper.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Params {
     /// Sand cover above the actuator axis (mm), selects the table row.
+    /// Range 0–200 (the paper's box holds 200 mm of sand).
     pub depth_mm: f32,
     /// Expansion stops when the estimated outer diameter reaches this (mm).
+    /// Range 10–50.
     pub target_diameter_mm: f32,
-    /// Injection rate while expanding (mL/s).
+    /// Injection rate while expanding (mL/s). Range 0.05–10.
     pub expand_rate_ml_per_s: f32,
-    /// Withdrawal rate while shrinking (mL/s, positive number).
+    /// Withdrawal rate while shrinking (mL/s, positive number). Range 0.05–10.
     pub shrink_rate_ml_per_s: f32,
-    /// Time at constant volume after expanding (ms).
+    /// Time at constant volume after expanding (ms). Range 0–60 000.
     pub hold_ms: u32,
-    /// Time the advance drive runs after shrinking (ms).
+    /// Time the advance drive runs after shrinking (ms). Range 0–60 000.
     pub advance_ms: u32,
-    /// Number of cycles to run after `Start`; 0 = until `Stop`.
+    /// Number of cycles to run after `Start`; 0 = until `Stop`. Any value.
     pub cycles: u16,
-    /// Over-pressure limit (kPa), enforced independently of the table.
+    /// Over-pressure limit (kPa), enforced independently of the table, in
+    /// every state. Range 1–200, and below `sensor_max_kpa`.
     pub max_pressure_kpa: f32,
-    /// Largest net volume the pump may inject (mL); beyond it is a fault.
+    /// Largest net volume the pump may have injected since power-up (mL);
+    /// beyond it is a fault. Range 0.5–50 (a 50 mL syringe).
     pub max_volume_ml: f32,
     /// Sand collapse: expansion stops early once the sand's pressure–volume
-    /// slope falls below this fraction of its initial slope.
+    /// slope falls below this fraction of its initial (largest) slope.
+    /// Range 0–0.9; 0 disables the early stop.
     pub plateau_slope_fraction: f32,
-    /// Leak: largest pressure drop at constant volume during a hold (kPa).
+    /// Leak: largest pressure drop below the hold's peak at constant volume
+    /// (kPa). Range 0.05–50.
     pub leak_max_drop_kpa: f32,
     /// Stall: volume stepped with no pressure response before a fault (mL).
+    /// Range 0.05–20.
     pub stall_volume_ml: f32,
     /// Stall: pressure rise that counts as a response over that volume (kPa).
+    /// Range 0–20 (0 only trips on a falling pressure).
     pub stall_min_rise_kpa: f32,
     /// Largest tolerated gap between volume- and table-based diameters (mm).
+    /// Range 0.1–20.
     pub diameter_mismatch_mm: f32,
+    /// How long the diameter gap may exceed `diameter_mismatch_mm` before a
+    /// fault (ms). Range 10–10 000.
+    pub diameter_mismatch_ms: u32,
+    /// The plateau early stop is only considered once the volume-based
+    /// diameter has grown this much past D0 (mm). Range 0–20.
+    pub plateau_min_expansion_mm: f32,
+    /// The plateau early stop is armed only once the sand's slope has
+    /// reached this (kPa/mL): in free water there is no sand curve to watch.
+    /// Range 0.01–100.
+    pub plateau_min_slope_kpa_per_ml: f32,
+    /// Shrinking ends when the volume is within this of the rest volume
+    /// captured at `Start` (mL). Range 0.001–1.
+    pub rest_tolerance_ml: f32,
+    /// Smallest net volume since power-up (mL): withdrawing more than was
+    /// injected sucks on the skin. Range −10–0.
+    pub min_volume_ml: f32,
+    /// Lowest plausible sensor reading (kPa gauge); below it (or NaN, or −∞)
+    /// is a sensor fault. Range −100–0.
+    pub sensor_min_kpa: f32,
+    /// Sensor full scale (kPa gauge). Readings above `max_pressure_kpa` are
+    /// always treated as over-pressure, saturated or not. Range 1–1000.
+    pub sensor_max_kpa: f32,
+    /// A reading older than this when the step sees it is stale (ms).
+    /// Range 10–1000.
+    pub sensor_stale_ms: u32,
+    /// A bit-identical reading for this long while the pump runs is a frozen
+    /// sensor (ms). Range 20–10 000.
+    pub sensor_frozen_ms: u32,
+    /// This many consecutive steps with a bus error (or no sample) is a bus
+    /// fault. Range 1–100.
+    pub sensor_bus_error_steps: u8,
 }
 
 /// A parameter field, named in errors.
@@ -57,6 +108,16 @@ pub enum ParamField {
     StallVolumeMl,
     StallMinRiseKpa,
     DiameterMismatchMm,
+    DiameterMismatchMs,
+    PlateauMinExpansionMm,
+    PlateauMinSlopeKpaPerMl,
+    RestToleranceMl,
+    MinVolumeMl,
+    SensorMinKpa,
+    SensorMaxKpa,
+    SensorStaleMs,
+    SensorFrozenMs,
+    SensorBusErrorSteps,
 }
 
 /// A rejected parameter set: the first field out of its range.
@@ -65,4 +126,202 @@ pub enum ParamField {
 pub struct ParamError {
     /// The offending field.
     pub field: ParamField,
+}
+
+/// The closed range `[min, max]` one field must lie in, in the field's unit
+/// (integer fields compare exactly: every bound is below 2^24).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldRange {
+    /// The field.
+    pub field: ParamField,
+    /// Smallest accepted value (field unit).
+    pub min: f32,
+    /// Largest accepted value (field unit).
+    pub max: f32,
+}
+
+const fn range(field: ParamField, min: f32, max: f32) -> FieldRange {
+    FieldRange { field, min, max }
+}
+
+/// Every field's accepted range, in declaration order; [`Params::validate`]
+/// walks this table.
+pub const RANGES: [FieldRange; 24] = [
+    range(ParamField::DepthMm, 0.0, 200.0),
+    range(ParamField::TargetDiameterMm, 10.0, 50.0),
+    range(ParamField::ExpandRateMlPerS, 0.05, 10.0),
+    range(ParamField::ShrinkRateMlPerS, 0.05, 10.0),
+    range(ParamField::HoldMs, 0.0, 60_000.0),
+    range(ParamField::AdvanceMs, 0.0, 60_000.0),
+    range(ParamField::Cycles, 0.0, u16::MAX as f32),
+    range(ParamField::MaxPressureKpa, 1.0, 200.0),
+    range(ParamField::MaxVolumeMl, 0.5, 50.0),
+    range(ParamField::PlateauSlopeFraction, 0.0, 0.9),
+    range(ParamField::LeakMaxDropKpa, 0.05, 50.0),
+    range(ParamField::StallVolumeMl, 0.05, 20.0),
+    range(ParamField::StallMinRiseKpa, 0.0, 20.0),
+    range(ParamField::DiameterMismatchMm, 0.1, 20.0),
+    range(ParamField::DiameterMismatchMs, 10.0, 10_000.0),
+    range(ParamField::PlateauMinExpansionMm, 0.0, 20.0),
+    range(ParamField::PlateauMinSlopeKpaPerMl, 0.01, 100.0),
+    range(ParamField::RestToleranceMl, 0.001, 1.0),
+    range(ParamField::MinVolumeMl, -10.0, 0.0),
+    range(ParamField::SensorMinKpa, -100.0, 0.0),
+    range(ParamField::SensorMaxKpa, 1.0, 1000.0),
+    range(ParamField::SensorStaleMs, 10.0, 1000.0),
+    range(ParamField::SensorFrozenMs, 20.0, 10_000.0),
+    range(ParamField::SensorBusErrorSteps, 1.0, 100.0),
+];
+
+impl ParamField {
+    /// This field's accepted range.
+    pub fn range(self) -> FieldRange {
+        // RANGES lists every variant once (checked by a unit test); the
+        // NaN fallback would reject every value, never accept one.
+        RANGES
+            .iter()
+            .find(|r| r.field == self)
+            .copied()
+            .unwrap_or(range(self, f32::NAN, f32::NAN))
+    }
+}
+
+impl Params {
+    /// Defaults for the paper's actuator; see the type's docs.
+    pub const DEFAULT: Params = Params {
+        depth_mm: 40.0,
+        target_diameter_mm: 25.0,
+        expand_rate_ml_per_s: 2.0,
+        shrink_rate_ml_per_s: 4.0,
+        hold_ms: 500,
+        advance_ms: 1000,
+        cycles: 0,
+        max_pressure_kpa: 30.0,
+        max_volume_ml: 10.0,
+        plateau_slope_fraction: 0.1,
+        leak_max_drop_kpa: 1.5,
+        stall_volume_ml: 1.0,
+        stall_min_rise_kpa: 0.05,
+        diameter_mismatch_mm: 2.5,
+        diameter_mismatch_ms: 500,
+        plateau_min_expansion_mm: 1.0,
+        plateau_min_slope_kpa_per_ml: 0.5,
+        rest_tolerance_ml: 0.05,
+        min_volume_ml: -0.5,
+        sensor_min_kpa: -20.0,
+        sensor_max_kpa: 100.0,
+        sensor_stale_ms: 50,
+        sensor_frozen_ms: 300,
+        sensor_bus_error_steps: 3,
+    };
+
+    /// The value of `field` as f32 (integer fields convert exactly).
+    pub fn get(&self, field: ParamField) -> f32 {
+        match field {
+            ParamField::DepthMm => self.depth_mm,
+            ParamField::TargetDiameterMm => self.target_diameter_mm,
+            ParamField::ExpandRateMlPerS => self.expand_rate_ml_per_s,
+            ParamField::ShrinkRateMlPerS => self.shrink_rate_ml_per_s,
+            // Values above 2^24 lose bits but stay above every bound.
+            ParamField::HoldMs => self.hold_ms as f32,
+            ParamField::AdvanceMs => self.advance_ms as f32,
+            ParamField::Cycles => f32::from(self.cycles),
+            ParamField::MaxPressureKpa => self.max_pressure_kpa,
+            ParamField::MaxVolumeMl => self.max_volume_ml,
+            ParamField::PlateauSlopeFraction => self.plateau_slope_fraction,
+            ParamField::LeakMaxDropKpa => self.leak_max_drop_kpa,
+            ParamField::StallVolumeMl => self.stall_volume_ml,
+            ParamField::StallMinRiseKpa => self.stall_min_rise_kpa,
+            ParamField::DiameterMismatchMm => self.diameter_mismatch_mm,
+            ParamField::DiameterMismatchMs => self.diameter_mismatch_ms as f32,
+            ParamField::PlateauMinExpansionMm => self.plateau_min_expansion_mm,
+            ParamField::PlateauMinSlopeKpaPerMl => self.plateau_min_slope_kpa_per_ml,
+            ParamField::RestToleranceMl => self.rest_tolerance_ml,
+            ParamField::MinVolumeMl => self.min_volume_ml,
+            ParamField::SensorMinKpa => self.sensor_min_kpa,
+            ParamField::SensorMaxKpa => self.sensor_max_kpa,
+            ParamField::SensorStaleMs => self.sensor_stale_ms as f32,
+            ParamField::SensorFrozenMs => self.sensor_frozen_ms as f32,
+            ParamField::SensorBusErrorSteps => f32::from(self.sensor_bus_error_steps),
+        }
+    }
+
+    /// Sets `field` to `value`, for tools and tests that walk [`RANGES`].
+    /// Integer fields take the value rounded toward zero and saturated to
+    /// their type (NaN gives 0), like Rust's `as` conversion.
+    pub fn set(&mut self, field: ParamField, value: f32) {
+        match field {
+            ParamField::DepthMm => self.depth_mm = value,
+            ParamField::TargetDiameterMm => self.target_diameter_mm = value,
+            ParamField::ExpandRateMlPerS => self.expand_rate_ml_per_s = value,
+            ParamField::ShrinkRateMlPerS => self.shrink_rate_ml_per_s = value,
+            ParamField::HoldMs => self.hold_ms = value as u32,
+            ParamField::AdvanceMs => self.advance_ms = value as u32,
+            ParamField::Cycles => self.cycles = value as u16,
+            ParamField::MaxPressureKpa => self.max_pressure_kpa = value,
+            ParamField::MaxVolumeMl => self.max_volume_ml = value,
+            ParamField::PlateauSlopeFraction => self.plateau_slope_fraction = value,
+            ParamField::LeakMaxDropKpa => self.leak_max_drop_kpa = value,
+            ParamField::StallVolumeMl => self.stall_volume_ml = value,
+            ParamField::StallMinRiseKpa => self.stall_min_rise_kpa = value,
+            ParamField::DiameterMismatchMm => self.diameter_mismatch_mm = value,
+            ParamField::DiameterMismatchMs => self.diameter_mismatch_ms = value as u32,
+            ParamField::PlateauMinExpansionMm => self.plateau_min_expansion_mm = value,
+            ParamField::PlateauMinSlopeKpaPerMl => self.plateau_min_slope_kpa_per_ml = value,
+            ParamField::RestToleranceMl => self.rest_tolerance_ml = value,
+            ParamField::MinVolumeMl => self.min_volume_ml = value,
+            ParamField::SensorMinKpa => self.sensor_min_kpa = value,
+            ParamField::SensorMaxKpa => self.sensor_max_kpa = value,
+            ParamField::SensorStaleMs => self.sensor_stale_ms = value as u32,
+            ParamField::SensorFrozenMs => self.sensor_frozen_ms = value as u32,
+            ParamField::SensorBusErrorSteps => self.sensor_bus_error_steps = value as u8,
+        }
+    }
+
+    /// Checks every field against [`RANGES`] (NaN is out of every range),
+    /// then `max_pressure_kpa < sensor_max_kpa`. Returns the first offending
+    /// field in declaration order.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        for r in RANGES {
+            let v = self.get(r.field);
+            // Written so that NaN fails: every comparison with NaN is false.
+            if !(v >= r.min && v <= r.max) {
+                return Err(ParamError { field: r.field });
+            }
+        }
+        let measurable = self.max_pressure_kpa < self.sensor_max_kpa;
+        if !measurable {
+            return Err(ParamError {
+                field: ParamField::MaxPressureKpa,
+            });
+        }
+        Ok(())
+    }
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_is_valid() {
+        assert_eq!(Params::DEFAULT.validate(), Ok(()));
+    }
+
+    #[test]
+    fn ranges_list_every_field_once_in_order() {
+        for (i, r) in RANGES.iter().enumerate() {
+            assert!(r.min <= r.max, "{:?}", r.field);
+            assert_eq!(r.field.range(), *r);
+            for other in &RANGES[i + 1..] {
+                assert_ne!(r.field, other.field);
+            }
+        }
+    }
 }

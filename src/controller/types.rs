@@ -61,8 +61,8 @@ pub enum Command {
     Start,
     /// Finish safely: shrink to rest volume, then Idle.
     Stop,
-    /// Clear a latched fault (only once the pump is at rest volume or the
-    /// fault cause is gone); returns to Idle.
+    /// Clear a latched fault once its cause is gone (else `CauseActive`);
+    /// returns to Idle. A no-op in Idle, `Busy` in the other states.
     Reset,
     /// Replace all parameters (Idle only); an invalid set is rejected whole.
     SetParams(Params),
@@ -80,7 +80,9 @@ pub enum CommandError {
     BadTable(TableError),
     /// The parameter set is out of range (first offending field).
     InvalidParams(ParamError),
-    /// `Reset` while the fault cause is still present.
+    /// `Reset` (or `Start`) while a monitored cause is present: over-pressure,
+    /// unhealthy sensor (or no reading yet), closed end-stop, volume out of
+    /// limits. See `Controller::alarm`.
     CauseActive,
 }
 
