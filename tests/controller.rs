@@ -317,3 +317,26 @@ fn defaults_run_clean_cycles_on_the_generated_table() {
         println!("h={depth_mm} mm: ends {ends:?}, max D {max_mm:.2} mm");
     }
 }
+
+#[test]
+fn garbage_volume_while_expanding_is_a_volume_fault_not_a_stall() {
+    for garbage in [f32::NAN, 1e30, f32::INFINITY, -1e30] {
+        let store = LawTable::new(slow());
+        let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0));
+        bench.start().unwrap();
+        bench
+            .run_until(
+                300,
+                |o, _| o.telemetry.diameter_volume_mm >= 21.0,
+                "no expansion",
+            )
+            .unwrap();
+        bench.plant.volume_override = Some(garbage);
+        let out = bench.step(None);
+        assert_eq!(out.telemetry.fault, Some(Fault::VolumeLimit), "{garbage}");
+        // Over-pressure outranks it.
+        bench.plant.offset_kpa = 100.0;
+        assert_eq!(bench.step(None).telemetry.fault, Some(Fault::VolumeLimit));
+        assert_eq!(bench.ctrl.alarm(), Some(Fault::OverPressure));
+    }
+}

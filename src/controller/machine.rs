@@ -191,9 +191,9 @@ impl<'t> Controller<'t> {
                     .then_some(Fault::OverPressure)
                     .or(sensor.condition)
                     .or(end_stop.then_some(Fault::EndStop))
+                    .or(volume_bad.then_some(Fault::VolumeLimit))
                     .or(stall.then_some(Fault::PumpStall))
                     .or(leak.then_some(Fault::Leak))
-                    .or(volume_bad.then_some(Fault::VolumeLimit))
                     .or(mismatch.then_some(Fault::DiameterMismatch))
                     .or((!on_time).then_some(Fault::ControlOverrun))
             }

@@ -75,9 +75,9 @@
 //! | `SensorFrozen` | bit-identical reading for ≥ `sensor_frozen_ms` while the pump runs | `sensor_frozen_ms` + 1 period [310 ms] | active |
 //! | `SensorStale` | `now − taken_ms` > `sensor_stale_ms` (wrapping; a future stamp is stale) | `sensor_stale_ms` + 1 period [60 ms] | active |
 //! | `EndStop` | `empty` or `full` closed (injecting drives towards `empty`) | 1 period [10 ms] | active |
+//! | `VolumeLimit` | pump volume NaN, > `max_volume_ml` or < `min_volume_ml` | 1 period [10 ms] | all states |
 //! | `PumpStall` | in Expand, a block of `stall_volume_ml` pumped with a rise < `stall_min_rise_kpa` | 2 blocks + 2 periods [1020 ms] | Expand |
 //! | `Leak` | in Hold, pressure > `leak_max_drop_kpa` below the hold's peak | 1 period [10 ms] | Hold |
-//! | `VolumeLimit` | pump volume NaN, > `max_volume_ml` or < `min_volume_ml` | 1 period [10 ms] | all states |
 //! | `DiameterMismatch` | in Expand, \|D_table − D_volume\| > `diameter_mismatch_mm` for ≥ `diameter_mismatch_ms` | `diameter_mismatch_ms` + 1 period [510 ms] | Expand |
 //! | `ControlOverrun` | step more than [`CONTROL_OVERRUN_LIMIT_MS`] (30 ms) after the previous one, or time going backwards | the late step itself [0 ms] | active |
 //!

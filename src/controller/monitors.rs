@@ -129,7 +129,10 @@ impl StallMonitor {
             self.start = Some((volume_ml, pressure_kpa));
             return false;
         };
-        if volume_ml - v0 < params.stall_volume_ml {
+        // Written so that a NaN volume never completes a block (the volume
+        // monitor reports it).
+        let block_done = volume_ml - v0 >= params.stall_volume_ml;
+        if !block_done {
             return false;
         }
         // Written so that NaN counts as no response.

@@ -51,7 +51,11 @@ pub struct Params {
     /// Range 0.05–20.
     pub stall_volume_ml: f32,
     /// Stall: pressure rise that counts as a response over that volume (kPa).
-    /// Range 0–20 (0 only trips on a falling pressure).
+    /// Range 0–20 (0 only trips on a falling pressure). The ratio
+    /// `stall_min_rise_kpa / stall_volume_ml` must stay below the head's
+    /// slowest healthy slope: in sand that is far above the default
+    /// 0.05 kPa/mL, but in free water (depth 0) the skin alone gives only
+    /// about 0.02–0.1 kPa/mL, so lower it for free-water runs.
     pub stall_min_rise_kpa: f32,
     /// Largest tolerated gap between volume- and table-based diameters (mm).
     /// Range 0.1–20.
