@@ -4,15 +4,19 @@
 //! `main.rs` is thin; every capability is a module here:
 //!
 //! - [`tables`]: generates the firmware's pressure→diameter table;
-//! - [`paper_placeholder`]: the stand-in physics the table uses until the
-//!   skin model and sand law land;
+//! - [`skin`]: hyperelastic skin laws, their fit to tensile tests, and the
+//!   inflation of the skin tube;
+//! - [`sand`]: the parametric sand law p_e(D, h);
+//! - [`pressure_model`]: p_i = p_membrane + p_e, the table's physics;
 //! - [`files`]: atomic result files.
 
 pub mod files;
-pub mod paper_placeholder;
+pub mod pressure_model;
+pub mod sand;
+pub mod skin;
 pub mod tables;
 
 /// The p_i(D, h) model the firmware tables are generated from.
-pub fn physics_model() -> paper_placeholder::PaperPlaceholder {
-    paper_placeholder::PaperPlaceholder::default()
+pub fn physics_model() -> pressure_model::SkinSandModel {
+    pressure_model::SkinSandModel::paper_default()
 }

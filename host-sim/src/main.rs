@@ -28,6 +28,16 @@ enum Command {
         #[arg(long)]
         check: bool,
     },
+    /// Fit neo-Hookean, Mooney–Rivlin and Yeoh laws to a uniaxial test CSV
+    /// (strain + cauchy_stress_kpa or nominal_stress_kpa); writes
+    /// <stem>-fit.json and <stem>-fit.svg.
+    FitSkin {
+        /// The uniaxial test (shared/data-format.md).
+        file: PathBuf,
+        /// Folder for the JSON result and the SVG plot.
+        #[arg(long, default_value = ".")]
+        out: PathBuf,
+    },
 }
 
 fn default_repo_root() -> PathBuf {
@@ -40,6 +50,18 @@ fn run(cli: Cli) -> Result<()> {
             let (path, outcome) =
                 host_sim::tables::regenerate(&repo, &host_sim::physics_model(), check)?;
             println!("{}: {:?}", path.display(), outcome);
+        }
+        Command::FitSkin { file, out } => {
+            let done = host_sim::skin::report::fit_skin(&file, &out)?;
+            for w in &done.report.input.warnings {
+                eprintln!("warning: {w}");
+            }
+            print!("{}", done.report.table());
+            println!(
+                "wrote {} and {}",
+                done.json_path.display(),
+                done.svg_path.display()
+            );
         }
     }
     Ok(())
