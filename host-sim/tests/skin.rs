@@ -287,7 +287,17 @@ fn sand_calibration_and_pressure_model_against_the_paper() {
     let model = SkinSandModel::paper_default();
     let pm = model.membrane_kpa(25.0).unwrap();
     let pi = model.internal_pressure_kpa(25.0, 40.0);
-    println!("p_membrane(25 mm) = {pm:.4} kPa, p_i(25 mm, 40 mm) = {pi:.4} kPa");
+    println!("p_membrane(25 mm) = {pm:.4} kPa");
+    for h in [0.0, 40.0, 50.0, 70.0, 100.0, 200.0] {
+        let at = |d: f64| model.internal_pressure_kpa(d, h);
+        println!(
+            "  p_i(h = {h:5.1} mm): D = 18.7: {:.4}, 20: {:.4}, 22: {:.4}, 25: {:.4} kPa",
+            at(18.7),
+            at(20.0),
+            at(22.0),
+            at(25.0)
+        );
+    }
     // p_i − p_membrane is the calibrated p_e at 4 cm.
     assert!((pi - pm - cal.model_kpa[0]).abs() < 1e-12);
 }
