@@ -8,13 +8,19 @@
 //!   inflation of the skin tube;
 //! - [`sand`]: the parametric sand law p_e(D, h);
 //! - [`pressure_model`]: p_i = p_membrane + p_e, the table's physics;
+//! - [`experiment`]: the experiment folder (rig.toml + CSV runs), read and
+//!   written by every tool;
+//! - [`telemetry`]: raw serial captures of the board's telemetry → experiment
+//!   folders;
 //! - [`files`]: atomic result files.
 
+pub mod experiment;
 pub mod files;
 pub mod pressure_model;
 pub mod sand;
 pub mod skin;
 pub mod tables;
+pub mod telemetry;
 
 /// The p_i(D, h) model the firmware tables are generated from.
 pub fn physics_model() -> pressure_model::SkinSandModel {

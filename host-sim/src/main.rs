@@ -38,6 +38,25 @@ enum Command {
         #[arg(long, default_value = ".")]
         out: PathBuf,
     },
+    /// Convert a raw serial capture of the board's telemetry into an
+    /// experiment folder (rig.toml + runs.csv).
+    Telemetry {
+        /// Bytes as read from the virtual COM port.
+        capture: PathBuf,
+        /// Experiment folder to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// The set-up (rig.toml); default: the paper's.
+        #[arg(long)]
+        rig: Option<PathBuf>,
+        /// Run id; default: the capture's file stem.
+        #[arg(long)]
+        run: Option<String>,
+        /// Sand cover above the actuator axis (mm); default: from the
+        /// board's Params replies in the capture.
+        #[arg(long = "depth-mm")]
+        depth_mm: Option<f64>,
+    },
 }
 
 fn default_repo_root() -> PathBuf {
@@ -62,6 +81,33 @@ fn run(cli: Cli) -> Result<()> {
                 done.json_path.display(),
                 done.svg_path.display()
             );
+        }
+        Command::Telemetry {
+            capture,
+            out,
+            rig,
+            run,
+            depth_mm,
+        } => {
+            let done = host_sim::telemetry::convert_file(
+                &capture,
+                &out,
+                rig.as_deref(),
+                run.as_deref(),
+                depth_mm,
+            )?;
+            for note in &done.notes {
+                eprintln!("note: {note}");
+            }
+            for run in &done.experiment.runs {
+                println!(
+                    "run {}: {} samples at depth {} mm",
+                    run.id,
+                    run.samples.len(),
+                    run.depth_mm
+                );
+            }
+            println!("wrote {}", out.display());
         }
     }
     Ok(())
