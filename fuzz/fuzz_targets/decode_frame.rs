@@ -5,7 +5,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use serde::{de::DeserializeOwned, Serialize};
-use urechis::protocol::{encode, FrameDecoder, DeviceMessage, HostMessage, MAX_FRAME};
+use urechis::protocol::{encode, DeviceMessage, FrameDecoder, HostMessage, MAX_FRAME};
 
 fuzz_target!(|data: &[u8]| {
     let mut device = FrameDecoder::<DeviceMessage>::new();
@@ -25,7 +25,10 @@ fn assert_reencodes<T: Serialize + DeserializeOwned>(msg: &T) {
     let frame = encode(msg, &mut buf).expect("a decoded message always fits a frame");
     let mut decoder = FrameDecoder::<T>::new();
     let mut decoded = frame.iter().filter_map(|&b| decoder.push(b));
-    let again = decoded.next().expect("one result").expect("own frame decodes");
+    let again = decoded
+        .next()
+        .expect("one result")
+        .expect("own frame decodes");
     assert!(decoded.next().is_none());
     let mut buf2 = [0u8; MAX_FRAME];
     assert_eq!(encode(&again, &mut buf2).expect("fits"), frame);

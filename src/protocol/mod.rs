@@ -138,9 +138,19 @@
 //! assert_eq!(got, [Ok(HostMessage { seq: 1, body: HostCommand::Ping })]);
 //! ```
 //!
-//! The fuzz target `fuzz/fuzz_targets/decode_frame.rs` feeds arbitrary bytes
-//! to the decoder: `cargo +nightly fuzz run decode_frame` from `fuzz/` (needs
-//! `cargo install cargo-fuzz`).
+//! # Fuzzing
+//!
+//! `fuzz/fuzz_targets/decode_frame.rs` feeds arbitrary bytes to both stream
+//! decoders and checks that nothing panics and that every decoded message
+//! re-encodes to a frame that decodes to the same message. It is not part of
+//! CI; run it with `cargo install cargo-fuzz`, then from `fuzz/`:
+//!
+//! ```text
+//! cargo +nightly fuzz run decode_frame corpus/decode_frame seeds/decode_frame
+//! ```
+//!
+//! (`seeds/` holds the example frames above; add `-- -max_total_time=60` for
+//! a bounded run.)
 
 mod frame;
 mod message;
