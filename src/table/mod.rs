@@ -10,6 +10,7 @@
 //! checked at boot by [`Table::verify`]: the controller refuses to start a
 //! cycle on a table that fails it.
 
+#[rustfmt::skip]
 pub mod generated;
 
 /// Format version of the table layout and checksum rule; `host-sim tables`
@@ -77,7 +78,11 @@ impl<'a> Table<'a> {
         let mut digest = CHECKSUM_ALGORITHM.digest();
         digest.update(&self.format_version.to_le_bytes());
         digest.update(&[u8::from(self.placeholder)]);
-        for v in [self.initial_diameter_mm, self.expansion_length_mm, self.skin_thickness_mm] {
+        for v in [
+            self.initial_diameter_mm,
+            self.expansion_length_mm,
+            self.skin_thickness_mm,
+        ] {
             digest.update(&v.to_le_bytes());
         }
         for axis in [self.depths_mm, self.diameters_mm, self.pressure_kpa] {
@@ -102,9 +107,18 @@ impl<'a> Table<'a> {
         {
             return Err(TableError::Shape);
         }
-        let geometry = [self.initial_diameter_mm, self.expansion_length_mm, self.skin_thickness_mm];
+        let geometry = [
+            self.initial_diameter_mm,
+            self.expansion_length_mm,
+            self.skin_thickness_mm,
+        ];
         if geometry.iter().any(|v| !v.is_finite() || *v <= 0.0)
-            || self.depths_mm.iter().chain(self.diameters_mm).chain(self.pressure_kpa).any(|v| !v.is_finite())
+            || self
+                .depths_mm
+                .iter()
+                .chain(self.diameters_mm)
+                .chain(self.pressure_kpa)
+                .any(|v| !v.is_finite())
         {
             return Err(TableError::NotFinite);
         }
@@ -115,7 +129,11 @@ impl<'a> Table<'a> {
         {
             return Err(TableError::Axis);
         }
-        if self.pressure_kpa.chunks_exact(np).any(|row| !strictly_increasing(row)) {
+        if self
+            .pressure_kpa
+            .chunks_exact(np)
+            .any(|row| !strictly_increasing(row))
+        {
             return Err(TableError::NotMonotonic);
         }
         if self.compute_checksum() != self.checksum {
@@ -126,7 +144,10 @@ impl<'a> Table<'a> {
 
     /// Largest diameter in the table (mm).
     pub fn max_diameter_mm(&self) -> f32 {
-        self.diameters_mm.last().copied().unwrap_or(self.initial_diameter_mm)
+        self.diameters_mm
+            .last()
+            .copied()
+            .unwrap_or(self.initial_diameter_mm)
     }
 
     /// Internal pressure p_i (kPa) at outer diameter `diameter_mm` and sand
@@ -154,7 +175,11 @@ impl<'a> Table<'a> {
         let (i, wh) = bracket(self.depths_mm, depth_mm);
         let np = self.diameters_mm.len();
         let row_at = |col: usize| {
-            lerp(self.pressure_kpa[i * np + col], self.pressure_kpa[(i + 1) * np + col], wh)
+            lerp(
+                self.pressure_kpa[i * np + col],
+                self.pressure_kpa[(i + 1) * np + col],
+                wh,
+            )
         };
         let first = row_at(0);
         if pressure_kpa <= first {
@@ -234,23 +259,64 @@ mod tests {
         assert_eq!(t.verify(), Ok(()));
         let mut p = PRESSURES;
         p[4] = 5.01;
-        let bad = Table { pressure_kpa: &p, ..t };
+        let bad = Table {
+            pressure_kpa: &p,
+            ..t
+        };
         assert_eq!(bad.verify(), Err(TableError::Checksum));
-        let flag = Table { placeholder: false, ..t };
+        let flag = Table {
+            placeholder: false,
+            ..t
+        };
         assert_eq!(flag.verify(), Err(TableError::Checksum));
     }
 
     #[test]
     fn structural_errors_are_named() {
         let t = table();
-        assert_eq!(Table { format_version: 2, ..t }.verify(), Err(TableError::Version));
-        assert_eq!(Table { pressure_kpa: &PRESSURES[..5], ..t }.verify(), Err(TableError::Shape));
+        assert_eq!(
+            Table {
+                format_version: 2,
+                ..t
+            }
+            .verify(),
+            Err(TableError::Version)
+        );
+        assert_eq!(
+            Table {
+                pressure_kpa: &PRESSURES[..5],
+                ..t
+            }
+            .verify(),
+            Err(TableError::Shape)
+        );
         let flat = [0.0, 0.1, 0.3, 1.0, 1.0, 9.0];
-        assert_eq!(Table { pressure_kpa: &flat, ..t }.verify(), Err(TableError::NotMonotonic));
+        assert_eq!(
+            Table {
+                pressure_kpa: &flat,
+                ..t
+            }
+            .verify(),
+            Err(TableError::NotMonotonic)
+        );
         let nan = [0.0, 0.1, f32::NAN, 1.0, 5.0, 9.0];
-        assert_eq!(Table { pressure_kpa: &nan, ..t }.verify(), Err(TableError::NotFinite));
+        assert_eq!(
+            Table {
+                pressure_kpa: &nan,
+                ..t
+            }
+            .verify(),
+            Err(TableError::NotFinite)
+        );
         let depths = [10.0, 100.0];
-        assert_eq!(Table { depths_mm: &depths, ..t }.verify(), Err(TableError::Axis));
+        assert_eq!(
+            Table {
+                depths_mm: &depths,
+                ..t
+            }
+            .verify(),
+            Err(TableError::Axis)
+        );
     }
 
     #[test]
