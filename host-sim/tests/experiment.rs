@@ -284,6 +284,18 @@ fn several_files_are_read_in_name_order() {
     assert_eq!(exp.rig.sand, None);
 }
 
+#[test]
+fn spreadsheet_exports_read() {
+    // A UTF-8 byte-order mark, CRLF line ends and padded cells, as saved by
+    // common spreadsheet programs.
+    let runs = "\u{feff}run, t_s ,depth_mm,volume_ml,pressure_kpa\r\na, 0.5 ,0,1,2\r\n";
+    let dir = folder(&[(RIG_FILE, RIG_NO_SAND), ("runs.csv", runs)]);
+    let exp = Experiment::read(dir.path()).unwrap();
+    assert_eq!(exp.runs[0].id, "a");
+    assert_eq!(exp.runs[0].samples[0].t_s, 0.5);
+    assert!(exp.warnings.is_empty(), "{:?}", exp.warnings);
+}
+
 // ---------------------------------------------------------------------------
 // Errors name file, line and key or column.
 
