@@ -340,3 +340,23 @@ fn garbage_volume_while_expanding_is_a_volume_fault_not_a_stall() {
         assert_eq!(bench.ctrl.alarm(), Some(Fault::OverPressure));
     }
 }
+
+#[test]
+fn a_fault_latched_at_boot_holds_the_safe_state_until_reset() {
+    // The board latches ControlOverrun after a watchdog reset.
+    let store = LawTable::new(slow());
+    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0));
+    bench.ctrl.latch_fault(Fault::ControlOverrun);
+    for _ in 0..5 {
+        let out = bench.step(Some(Command::Start));
+        assert_eq!(out.command_result, Some(Err(CommandError::Faulted)));
+        assert_eq!(
+            (out.state, out.pump, out.relief_valve_open, out.telemetry.fault),
+            (State::Fault, PumpCommand::Disable, true, Some(Fault::ControlOverrun))
+        );
+    }
+    let out = bench.step(Some(Command::Reset));
+    assert_eq!(out.command_result, Some(Ok(())));
+    assert_eq!(out.state, State::Idle);
+    assert_eq!(bench.step(Some(Command::Start)).command_result, Some(Ok(())));
+}

@@ -98,6 +98,17 @@ impl<'t> Controller<'t> {
         }
     }
 
+    /// Latches `fault` from outside a step, exactly as a monitor would:
+    /// State::Fault, pump disabled, valve open, until an accepted `Reset`.
+    /// The board calls it at boot after an independent-watchdog reset
+    /// ([`Fault::ControlOverrun`]), so a control loop that died does not come
+    /// back up in Idle as if nothing had happened.
+    pub fn latch_fault(&mut self, fault: Fault) {
+        self.state = State::Fault;
+        self.fault = Some(fault);
+        self.stopping = false;
+    }
+
     /// Current state.
     pub fn state(&self) -> State {
         self.state
