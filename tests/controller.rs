@@ -351,12 +351,25 @@ fn a_fault_latched_at_boot_holds_the_safe_state_until_reset() {
         let out = bench.step(Some(Command::Start));
         assert_eq!(out.command_result, Some(Err(CommandError::Faulted)));
         assert_eq!(
-            (out.state, out.pump, out.relief_valve_open, out.telemetry.fault),
-            (State::Fault, PumpCommand::Disable, true, Some(Fault::ControlOverrun))
+            (
+                out.state,
+                out.pump,
+                out.relief_valve_open,
+                out.telemetry.fault
+            ),
+            (
+                State::Fault,
+                PumpCommand::Disable,
+                true,
+                Some(Fault::ControlOverrun)
+            )
         );
     }
     let out = bench.step(Some(Command::Reset));
     assert_eq!(out.command_result, Some(Ok(())));
     assert_eq!(out.state, State::Idle);
-    assert_eq!(bench.step(Some(Command::Start)).command_result, Some(Ok(())));
+    assert_eq!(
+        bench.step(Some(Command::Start)).command_result,
+        Some(Ok(()))
+    );
 }
