@@ -12,10 +12,15 @@
 //!   written by every tool;
 //! - [`telemetry`]: raw serial captures of the board's telemetry → experiment
 //!   folders;
+//! - [`model`]: the reduced-order rig model (pump volume → reading), shared
+//!   by the workbench and the emulator;
+//! - [`effects`]: the library of physical effects the model can switch on;
 //! - [`files`]: atomic result files.
 
+pub mod effects;
 pub mod experiment;
 pub mod files;
+pub mod model;
 pub mod pressure_model;
 pub mod sand;
 pub mod skin;
