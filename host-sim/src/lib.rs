@@ -15,17 +15,25 @@
 //! - [`model`]: the reduced-order rig model (pump volume → reading), shared
 //!   by the workbench and the emulator;
 //! - [`effects`]: the library of physical effects the model can switch on;
+//! - [`model`]: the reduced-order rig model (pump volume → reading), shared
+//!   by the workbench and the emulator;
+//! - [`effects`]: the library of physical effects the model can switch on;
+//! - [`workbench`]: calibration, comparison and diagnosis of a model against
+//!   an experiment folder (`compare`, `diagnose`, `ledger`);
 //! - [`files`]: atomic result files.
 
 pub mod effects;
+pub mod effects;
 pub mod experiment;
 pub mod files;
+pub mod model;
 pub mod model;
 pub mod pressure_model;
 pub mod sand;
 pub mod skin;
 pub mod tables;
 pub mod telemetry;
+pub mod workbench;
 
 /// The p_i(D, h) model the firmware tables are generated from.
 pub fn physics_model() -> pressure_model::SkinSandModel {

@@ -1,0 +1,15 @@
+//! The model workbench: calibrate the rig model ([`crate::model`]) on an
+//! experiment folder, see where it fails, find the missing physical effect
+//! in the library ([`crate::effects`]), add it and watch the error fall.
+//!
+//! - [`dataset`]: the folder's runs as the fitter sees them;
+//! - [`calibrate`]: Levenberg–Marquardt with bounds and standard errors;
+//! - [`residuals`]: residual statistics, structure tests, sentences;
+//! - [`diagnose`]: effect ranking and greedy selection;
+//! - [`synth`]: synthetic experiments with hidden effects (tests, examples).
+
+pub mod calibrate;
+pub mod dataset;
+pub mod diagnose;
+pub mod residuals;
+pub mod synth;

@@ -1,0 +1,228 @@
+//! The model workbench on synthetic experiments with hidden effects
+//! (issue 4): the project's own generator (`workbench::synth`) hides one
+//! library effect, two, none, or one outside the library, adds seeded
+//! noise, and `diagnose` must name what was hidden.
+//!
+//! Small sets (3 runs, ~500 samples each) keep this fast in the dev
+//! profile; the full confusion matrix is `examples/confusion.rs`.
+
+use host_sim::experiment::{Experiment, PressureSource};
+use host_sim::workbench::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+use host_sim::workbench::synth::{case, typical, Outside, Synth};
+
+/// Sample interval of the test sets (s).
+const DT_S: f64 = 0.04;
+
+fn run(synth: &Synth) -> Diagnosis {
+    let exp = synth.generate().unwrap();
+    diagnose(&exp, &DiagnoseOptions::default()).unwrap()
+}
+
+fn primary(d: &Diagnosis, effect: &str, param: &str) -> f64 {
+    let key = format!("{effect}.{param}");
+    d.params
+        .iter()
+        .find(|p| p.name == key)
+        .unwrap_or_else(|| panic!("{key} not in {:?}", d.params))
+        .value
+}
+
+/// One hidden effect: ranked first, selected alone, primary parameter
+/// within 15 %, final RMSE within 1.5× the noise floor, nothing unexplained.
+fn hidden(name: &str, seed: u64) {
+    let truth = typical(name).unwrap();
+    let mut synth = case(vec![truth.clone()], DT_S, seed);
+    if name == "piston_friction" {
+        synth.rig.measurement.pressure_source = PressureSource::PistonForce;
+    }
+    let d = run(&synth);
+    assert_eq!(d.candidates[0].effect, name, "ranking: {:?}", names(&d));
+    assert_eq!(
+        d.selected,
+        vec![name.to_owned()],
+        "{:?} {:?} base {:?}",
+        names(&d),
+        d.candidates[0],
+        d.baseline
+    );
+    let p = truth.spec.params[0].name;
+    let (want, got) = (truth.values[0], primary(&d, name, p));
+    assert!(
+        (got - want).abs() <= 0.15 * want.abs(),
+        "{name}.{p}: fitted {got}, hidden {want}"
+    );
+    assert!(
+        d.final_rmse_kpa <= 1.5 * d.noise_floor_kpa,
+        "{name}: final RMSE {} vs noise {}",
+        d.final_rmse_kpa,
+        d.noise_floor_kpa
+    );
+    assert!(d.unexplained.is_none(), "{name}: {:?}", d.unexplained);
+}
+
+fn names(d: &Diagnosis) -> Vec<(String, f64)> {
+    d.candidates
+        .iter()
+        .map(|c| (c.effect.clone(), c.score))
+        .collect()
+}
+
+#[test]
+fn finds_hidden_sensor_offset() {
+    hidden("sensor_offset", 1);
+}
+
+#[test]
+fn finds_hidden_sensor_gain() {
+    hidden("sensor_gain", 2);
+}
+
+#[test]
+fn finds_hidden_line_loss() {
+    hidden("line_loss", 3);
+}
+
+#[test]
+fn finds_hidden_piston_friction() {
+    hidden("piston_friction", 4);
+}
+
+#[test]
+fn finds_hidden_trapped_air() {
+    hidden("trapped_air", 5);
+}
+
+#[test]
+fn finds_hidden_leak() {
+    hidden("leak", 6);
+}
+
+#[test]
+fn finds_hidden_skin_viscoelasticity() {
+    hidden("skin_viscoelasticity", 7);
+}
+
+#[test]
+fn finds_hidden_mullins_softening() {
+    hidden("mullins_softening", 8);
+}
+
+#[test]
+fn finds_hidden_wall_arching() {
+    hidden("wall_arching", 9);
+}
+
+/// Two hidden effects: both selected, both primaries within 15 %.
+fn pair(a: &str, b: &str, seed: u64) {
+    let truths = vec![typical(a).unwrap(), typical(b).unwrap()];
+    let d = run(&case(truths.clone(), DT_S, seed));
+    let mut sel = d.selected.clone();
+    sel.sort();
+    let mut want = vec![a.to_owned(), b.to_owned()];
+    want.sort();
+    assert_eq!(sel, want, "ranking {:?}", names(&d));
+    assert!(d.candidates[0].effect == a || d.candidates[0].effect == b);
+    for t in &truths {
+        let p = t.spec.params[0].name;
+        let got = primary(&d, t.spec.name, p);
+        assert!(
+            (got - t.values[0]).abs() <= 0.15 * t.values[0].abs(),
+            "{}.{p}: {got} vs {}",
+            t.spec.name,
+            t.values[0]
+        );
+    }
+    assert!(
+        d.final_rmse_kpa <= 1.5 * d.noise_floor_kpa,
+        "{} vs {}",
+        d.final_rmse_kpa,
+        d.noise_floor_kpa
+    );
+}
+
+#[test]
+fn finds_line_loss_and_leak_together() {
+    pair("line_loss", "leak", 11);
+}
+
+#[test]
+fn finds_wall_arching_and_sensor_offset_together() {
+    pair("wall_arching", "sensor_offset", 12);
+}
+
+#[test]
+fn control_selects_nothing() {
+    let d = run(&case(Vec::new(), DT_S, 13));
+    assert!(d.selected.is_empty(), "{:?}", names(&d));
+    assert!(d.unexplained.is_none(), "{:?}", d.unexplained);
+    assert!(d.final_rmse_kpa <= 1.5 * d.noise_floor_kpa);
+    // The baseline's sand factors are recovered (truth 1.15 and 0.9).
+    let get = |n: &str| d.params.iter().find(|p| p.name == n).unwrap();
+    let k0 = get("sand_at_rest_factor");
+    assert!((k0.value - 1.15).abs() < 0.05, "{k0:?}");
+    assert!((get("sand_limit_factor").value - 0.9).abs() < 0.05);
+    assert!(k0.std_error.is_some_and(|e| e > 0.0 && e < 0.05));
+}
+
+#[test]
+fn effect_outside_the_library_is_reported_unexplained() {
+    let mut synth = case(Vec::new(), DT_S, 14);
+    synth.outside = Some(Outside::TemperatureDrift {
+        amplitude_kpa: 0.25,
+        period_s: 7.0,
+    });
+    let d = run(&synth);
+    assert!(d.selected.is_empty(), "picked {:?}", d.selected);
+    let why = d
+        .unexplained
+        .expect("a structured residual must be reported");
+    assert!(why.contains("unexplained residual"), "{why}");
+}
+
+#[test]
+fn noise_floor_is_estimated_when_the_rig_does_not_state_it() {
+    let mut synth = case(Vec::new(), DT_S, 15);
+    synth.rig.measurement.pressure_noise_kpa = None;
+    synth.noise_kpa = 0.05;
+    let d = run(&synth);
+    assert!(
+        (d.noise_floor_kpa - 0.05).abs() < 0.01,
+        "{}",
+        d.noise_floor_kpa
+    );
+    assert!(d.noise_floor_source.contains("estimated"));
+}
+
+#[test]
+fn json_has_the_documented_fields_and_free_water_rigs_work() {
+    // Free water only, no [sand], piston force, runs of different lengths.
+    let mut synth = case(vec![typical("line_loss").unwrap()], DT_S, 16);
+    synth.rig.sand = None;
+    synth.rig.measurement.pressure_source = PressureSource::PistonForce;
+    for (i, r) in synth.runs.iter_mut().enumerate() {
+        r.depth_mm = 0.0;
+        r.flows_ml_s.truncate(1 + i % 2);
+    }
+    let exp: Experiment = synth.generate().unwrap();
+    let d = diagnose(&exp, &DiagnoseOptions::default()).unwrap();
+    assert_eq!(d.selected, vec!["line_loss".to_owned()]);
+    let v = serde_json::to_value(&d).unwrap();
+    for key in [
+        "candidates",
+        "selected",
+        "params",
+        "final_rmse_kpa",
+        "noise_floor_kpa",
+        "unexplained",
+    ] {
+        assert!(v.get(key).is_some(), "{key}");
+    }
+    assert!(v["baseline"]["rmse_kpa"].is_number());
+    let c = &v["candidates"][0];
+    for key in ["effect", "rmse_kpa", "score", "params"] {
+        assert!(c.get(key).is_some(), "candidates[0].{key}");
+    }
+    // Arching cannot act without sand; friction can (piston force).
+    assert!(d.not_applicable.iter().any(|(n, _)| n == "wall_arching"));
+    assert!(d.candidates.iter().any(|c| c.effect == "piston_friction"));
+}
