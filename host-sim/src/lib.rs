@@ -12,6 +12,8 @@
 //!   written by every tool;
 //! - [`telemetry`]: raw serial captures of the board's telemetry → experiment
 //!   folders;
+//! - [`dem`]: discrete-element sand (Hertz–Mindlin spheres, walls);
+//! - [`bench`]: the DEM throughput benchmark (`host-sim bench dem`);
 //! - [`model`]: the reduced-order rig model (pump volume → reading), shared
 //!   by the workbench and the emulator;
 //! - [`effects`]: the library of physical effects the model can switch on;
@@ -22,6 +24,8 @@
 //!   an experiment folder (`compare`, `diagnose`, `ledger`);
 //! - [`files`]: atomic result files.
 
+pub mod bench;
+pub mod dem;
 pub mod effects;
 pub mod effects;
 pub mod experiment;

@@ -1,0 +1,130 @@
+//! The particles' state, one array per quantity (structure of arrays).
+
+use nalgebra::Vector3;
+
+use super::DemError;
+
+/// Spheres as parallel arrays indexed by particle. Positions, velocities,
+/// spins, forces and torques are what the solver advances; radius, mass
+/// and their inverses are fixed at creation.
+#[derive(Clone, Debug, Default)]
+pub struct Particles {
+    /// Centre positions (m).
+    pub position_m: Vec<Vector3<f64>>,
+    /// Velocities (m/s).
+    pub velocity_m_s: Vec<Vector3<f64>>,
+    /// Angular velocities (rad/s).
+    pub angular_velocity_rad_s: Vec<Vector3<f64>>,
+    /// Total force of the last force evaluation (N).
+    pub force_n: Vec<Vector3<f64>>,
+    /// Total torque of the last force evaluation (N·m).
+    pub torque_n_m: Vec<Vector3<f64>>,
+    /// Radii (m).
+    pub radius_m: Vec<f64>,
+    /// Masses (kg).
+    pub mass_kg: Vec<f64>,
+    /// 1 / mass (1/kg).
+    pub inv_mass_per_kg: Vec<f64>,
+    /// 1 / moment of inertia, 1 / (2/5 m r²) (1/(kg·m²)).
+    pub inv_inertia_per_kg_m2: Vec<f64>,
+}
+
+impl Particles {
+    /// No particles.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a solid sphere of radius `radius_m` (m) and density
+    /// `density_kg_m3` (kg/m³) at `position_m`, moving at `velocity_m_s`;
+    /// returns its index.
+    pub fn push(
+        &mut self,
+        position_m: Vector3<f64>,
+        velocity_m_s: Vector3<f64>,
+        radius_m: f64,
+        density_kg_m3: f64,
+    ) -> Result<usize, DemError> {
+        if !(radius_m > 0.0 && radius_m.is_finite()) {
+            return Err(DemError::param("radius_m", radius_m));
+        }
+        if !(density_kg_m3 > 0.0 && density_kg_m3.is_finite()) {
+            return Err(DemError::param("density_kg_m3", density_kg_m3));
+        }
+        if !position_m
+            .iter()
+            .chain(velocity_m_s.iter())
+            .all(|v| v.is_finite())
+        {
+            return Err(DemError::NonFinite {
+                particle: self.len(),
+            });
+        }
+        if self.len() >= u32::MAX as usize {
+            return Err(DemError::param("particle count", self.len() as f64));
+        }
+        let mass = density_kg_m3 * 4.0 / 3.0 * std::f64::consts::PI * radius_m.powi(3);
+        self.position_m.push(position_m);
+        self.velocity_m_s.push(velocity_m_s);
+        self.angular_velocity_rad_s.push(Vector3::zeros());
+        self.force_n.push(Vector3::zeros());
+        self.torque_n_m.push(Vector3::zeros());
+        self.radius_m.push(radius_m);
+        self.mass_kg.push(mass);
+        self.inv_mass_per_kg.push(1.0 / mass);
+        self.inv_inertia_per_kg_m2
+            .push(1.0 / (0.4 * mass * radius_m * radius_m));
+        Ok(self.len() - 1)
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.position_m.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.position_m.is_empty()
+    }
+
+    /// Translational plus rotational kinetic energy (J).
+    pub fn kinetic_energy_j(&self) -> f64 {
+        (0..self.len())
+            .map(|i| {
+                0.5 * self.mass_kg[i] * self.velocity_m_s[i].norm_squared()
+                    + 0.5 * self.angular_velocity_rad_s[i].norm_squared()
+                        / self.inv_inertia_per_kg_m2[i]
+            })
+            .sum()
+    }
+
+    /// Total linear momentum (kg·m/s).
+    pub fn momentum_kg_m_s(&self) -> Vector3<f64> {
+        (0..self.len())
+            .map(|i| self.velocity_m_s[i] * self.mass_kg[i])
+            .sum()
+    }
+
+    /// Largest radius (m); 0 when empty.
+    pub fn max_radius_m(&self) -> f64 {
+        self.radius_m.iter().copied().fold(0.0, f64::max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_mass_and_inertia() {
+        let mut p = Particles::new();
+        p.push(Vector3::zeros(), Vector3::zeros(), 1e-3, 2920.0)
+            .unwrap();
+        let m = 2920.0 * 4.0 / 3.0 * std::f64::consts::PI * 1e-9;
+        assert!((p.mass_kg[0] - m).abs() < 1e-18);
+        assert!((1.0 / p.inv_inertia_per_kg_m2[0] - 0.4 * m * 1e-6).abs() < 1e-24);
+        assert!(p
+            .push(Vector3::zeros(), Vector3::zeros(), -1.0, 1.0)
+            .is_err());
+    }
+}

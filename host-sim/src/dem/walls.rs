@@ -1,0 +1,194 @@
+//! Fixed (or translating) rigid walls: planes and infinite cylinders,
+//! touched from either side.
+
+use nalgebra::Vector3;
+
+use super::contact::{ContactModel, ContactSpec, Material};
+use super::DemError;
+
+/// Which side of a cylinder the particles are on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CylinderSide {
+    /// Particles inside (a pipe or container).
+    Inside,
+    /// Particles outside (a rod or a probe).
+    Outside,
+}
+
+/// The geometry of a wall.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum WallShape {
+    /// Infinite plane; particles live on the side `normal` points to.
+    Plane {
+        /// A point of the plane (m).
+        point_m: Vector3<f64>,
+        /// Unit normal towards the particles.
+        normal: Vector3<f64>,
+    },
+    /// Infinite circular cylinder.
+    Cylinder {
+        /// A point of the axis (m).
+        axis_point_m: Vector3<f64>,
+        /// Unit axis direction.
+        axis: Vector3<f64>,
+        /// Radius (m).
+        radius_m: f64,
+        /// Which side the particles are on.
+        side: CylinderSide,
+    },
+}
+
+/// A rigid wall with its contact law.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wall {
+    /// Geometry.
+    pub shape: WallShape,
+    /// Translational velocity of the wall surface (m/s); its position is not
+    /// advanced by the solver (the caller moves `shape`). Default zero.
+    pub velocity_m_s: Vector3<f64>,
+    /// Particle–wall contact law (built from the particle and wall materials).
+    pub model: ContactModel,
+}
+
+impl Wall {
+    /// A plane wall through `point_m` with unit-normalised `normal` towards
+    /// the particles, Hertz–Mindlin between `particle` and `wall` materials.
+    pub fn plane(
+        point_m: Vector3<f64>,
+        normal: Vector3<f64>,
+        particle: &Material,
+        wall: &Material,
+        spec: &ContactSpec,
+    ) -> Result<Wall, DemError> {
+        let len = normal.norm();
+        if !(len > 0.0 && len.is_finite()) {
+            return Err(DemError::param("wall normal length", len));
+        }
+        Ok(Wall {
+            shape: WallShape::Plane {
+                point_m,
+                normal: normal / len,
+            },
+            velocity_m_s: Vector3::zeros(),
+            model: ContactModel::hertz_mindlin(particle, wall, spec)?,
+        })
+    }
+
+    /// A cylinder wall of radius `radius_m` (m) around the axis through
+    /// `axis_point_m` along `axis`, particles on `side`.
+    pub fn cylinder(
+        axis_point_m: Vector3<f64>,
+        axis: Vector3<f64>,
+        radius_m: f64,
+        side: CylinderSide,
+        particle: &Material,
+        wall: &Material,
+        spec: &ContactSpec,
+    ) -> Result<Wall, DemError> {
+        let len = axis.norm();
+        if !(len > 0.0 && len.is_finite()) {
+            return Err(DemError::param("cylinder axis length", len));
+        }
+        if !(radius_m > 0.0 && radius_m.is_finite()) {
+            return Err(DemError::param("cylinder radius_m", radius_m));
+        }
+        Ok(Wall {
+            shape: WallShape::Cylinder {
+                axis_point_m,
+                axis: axis / len,
+                radius_m,
+                side,
+            },
+            velocity_m_s: Vector3::zeros(),
+            model: ContactModel::hertz_mindlin(particle, wall, spec)?,
+        })
+    }
+
+    /// Contact of a sphere at `x` (m) of radius `r` (m): the unit normal
+    /// from the wall to the sphere and the overlap (m), if it touches.
+    #[inline]
+    pub fn touch(&self, x: &Vector3<f64>, r: f64) -> Option<(Vector3<f64>, f64)> {
+        match self.shape {
+            WallShape::Plane { point_m, normal } => {
+                let d = (x - point_m).dot(&normal);
+                let overlap = r - d;
+                (overlap > 0.0).then_some((normal, overlap))
+            }
+            WallShape::Cylinder {
+                axis_point_m,
+                axis,
+                radius_m,
+                side,
+            } => {
+                let rel = x - axis_point_m;
+                let radial = rel - axis * rel.dot(&axis);
+                let rho = radial.norm();
+                if rho == 0.0 {
+                    // On the axis the direction is undefined; an inside
+                    // particle there is far from the wall, an outside one
+                    // would be buried in the rod (not representable).
+                    return None;
+                }
+                let out = radial / rho;
+                match side {
+                    CylinderSide::Inside => {
+                        let overlap = r - (radius_m - rho);
+                        (overlap > 0.0).then_some((-out, overlap))
+                    }
+                    CylinderSide::Outside => {
+                        let overlap = r - (rho - radius_m);
+                        (overlap > 0.0).then_some((out, overlap))
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mat() -> Material {
+        Material {
+            youngs_modulus_pa: 1e7,
+            poisson_ratio: 0.3,
+            density_kg_m3: 2920.0,
+        }
+    }
+
+    #[test]
+    fn cylinder_sides() {
+        let spec = ContactSpec::default();
+        let inside = Wall::cylinder(
+            Vector3::zeros(),
+            Vector3::z() * 2.0,
+            0.01,
+            CylinderSide::Inside,
+            &mat(),
+            &mat(),
+            &spec,
+        )
+        .unwrap();
+        let (n, d) = inside
+            .touch(&Vector3::new(0.0095, 0.0, 5.0), 0.001)
+            .unwrap();
+        assert!((d - 0.0005).abs() < 1e-12 && (n + Vector3::x()).norm() < 1e-12);
+        assert!(inside
+            .touch(&Vector3::new(0.008, 0.0, 0.0), 0.001)
+            .is_none());
+        let outside = Wall {
+            shape: WallShape::Cylinder {
+                axis_point_m: Vector3::zeros(),
+                axis: Vector3::z(),
+                radius_m: 0.01,
+                side: CylinderSide::Outside,
+            },
+            ..inside
+        };
+        let (n, d) = outside
+            .touch(&Vector3::new(0.0, 0.0105, 0.0), 0.001)
+            .unwrap();
+        assert!((d - 0.0005).abs() < 1e-12 && (n - Vector3::y()).norm() < 1e-12);
+    }
+}
