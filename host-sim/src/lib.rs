@@ -17,9 +17,6 @@
 //! - [`model`]: the reduced-order rig model (pump volume → reading), shared
 //!   by the workbench and the emulator;
 //! - [`effects`]: the library of physical effects the model can switch on;
-//! - [`model`]: the reduced-order rig model (pump volume → reading), shared
-//!   by the workbench and the emulator;
-//! - [`effects`]: the library of physical effects the model can switch on;
 //! - [`workbench`]: calibration, comparison and diagnosis of a model against
 //!   an experiment folder (`compare`, `diagnose`, `ledger`);
 //! - [`files`]: atomic result files.
@@ -27,10 +24,8 @@
 pub mod bench;
 pub mod dem;
 pub mod effects;
-pub mod effects;
 pub mod experiment;
 pub mod files;
-pub mod model;
 pub mod model;
 pub mod pressure_model;
 pub mod sand;
