@@ -19,11 +19,14 @@
 //! - [`effects`]: the library of physical effects the model can switch on;
 //! - [`workbench`]: calibration, comparison and diagnosis of a model against
 //!   an experiment folder (`compare`, `diagnose`, `ledger`);
+//! - [`emulate`]: the firmware's controller closed around a simulated plant
+//!   (scenarios, traces, QEMU replay recordings);
 //! - [`files`]: atomic result files.
 
 pub mod bench;
 pub mod dem;
 pub mod effects;
+pub mod emulate;
 pub mod experiment;
 pub mod files;
 pub mod model;

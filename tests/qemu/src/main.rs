@@ -1,8 +1,12 @@
 //! Runs every controller self-test scenario ([`urechis::selftest::SCENARIOS`])
-//! on a Cortex-M4 under `qemu-system-arm -machine netduinoplus2`, prints one
-//! `name ... ok` / `name ... FAILED: why` line per scenario and a closing
+//! on a Cortex-M4 under `qemu-system-arm -machine netduinoplus2`, then
+//! replays every recorded emulator run
+//! ([`urechis_qemu_tests::replay_data::RECORDINGS`]) through the same
+//! controller and checks each step's decision against the host's
+//! ([`urechis_qemu_tests::replay::check`]). Prints one `name ... ok` /
+//! `name ... FAILED: why` line per scenario and recording and a closing
 //! `N passed, N failed` line through semihosting, and exits with the
-//! semihosting exit code (0 only when every scenario passed).
+//! semihosting exit code (0 only when everything passed).
 //!
 //! On any other target this is a stub, so host builds of the whole workspace
 //! (`cargo clippy --workspace --target host-tuple`) stay green.
@@ -16,6 +20,9 @@ mod qemu {
     use cortex_m_rt::entry;
     use cortex_m_semihosting::{debug, hprint, hprintln};
     use urechis::selftest::SCENARIOS;
+    use urechis::table::generated::TABLE;
+    use urechis_qemu_tests::replay;
+    use urechis_qemu_tests::replay_data::RECORDINGS;
 
     /// Scenarios finished so far, kept where the panic handler can read them.
     static PASSED: AtomicU32 = AtomicU32::new(0);
@@ -30,6 +37,23 @@ mod qemu {
                 Ok(()) => {
                     PASSED.fetch_add(1, Ordering::Relaxed);
                     hprintln!("ok");
+                }
+                Err(why) => {
+                    FAILED.fetch_add(1, Ordering::Relaxed);
+                    hprintln!("FAILED: {}", why);
+                }
+            }
+        }
+        for recording in RECORDINGS {
+            hprint!("replay {} ... ", recording.name);
+            match replay::check(recording.bytes, TABLE) {
+                Ok(summary) => {
+                    PASSED.fetch_add(1, Ordering::Relaxed);
+                    hprintln!(
+                        "ok ({} steps, telemetry digest {:#010x})",
+                        summary.steps,
+                        summary.digest
+                    );
                 }
                 Err(why) => {
                     FAILED.fetch_add(1, Ordering::Relaxed);

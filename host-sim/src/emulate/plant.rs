@@ -1,0 +1,369 @@
+//! The emulated plant: stepper syringe pump → line (relief valve, a
+//! blockage when injected) → the workbench's rig model
+//! ([`crate::model::RigModel`]: effects, actuator volume, diameter, skin +
+//! sand with its unloading branch, the reading at the line sensor) → the
+//! MS5837 as the board delivers it; plus the external advance drive.
+//!
+//! The physics of the head is not here: it is the workbench's
+//! [`RigModel`] with the same [`EffectInstance`]s the workbench fits, so an
+//! effect switched on in a scenario is the very effect `host-sim diagnose`
+//! looks for. What the plant adds is what sits outside the rig model:
+//!
+//! - the **pump** ([`StepperPump`]): microsteps and end-stops, a stall;
+//! - the **line** between the pump and the head, with the relief valve on
+//!   the pump side of the sensor. The water delivered into the rig model is
+//!   `displaced − vented − stored`: the valve (open in Fault) vents
+//!   `relief_conductance · p_line` mL/s; a **blockage** (injected) freezes
+//!   the volume reaching the head, and what the pump pushes on goes into
+//!   the line's compliance, so the line reads
+//!   `p_head + stored / line_compliance` (a stiff spring: a blocked line
+//!   over-pressurises fast);
+//! - the **advance drive**: moves the head at `advance_speed_mm_per_s`
+//!   while the controller drives it, unless the head is still anchored
+//!   (outer diameter more than `anchor_clearance_mm` above D0).
+//!
+//! Time advances in 1 ms sub-steps; [`Plant::run_period`] runs one control
+//! period.
+
+use std::sync::{Arc, Mutex, OnceLock};
+
+use anyhow::{ensure, Result};
+use urechis::controller::{EndStops, Outputs, PressureSample, PumpCommand};
+use urechis::drivers::pump::PumpConfig;
+
+use super::pump::{us_from_ms, StepperPump};
+use super::sensor::{Sensor, SensorConfig, SensorFault};
+use crate::effects::EffectInstance;
+use crate::experiment::{Rig, Skin};
+use crate::model::{self, RigBasis, RigModel, RunState};
+
+/// Length of one plant sub-step (ms).
+pub const SUBSTEP_MS: u32 = 1;
+
+/// Everything that defines a plant.
+#[derive(Clone, Debug)]
+pub struct PlantConfig {
+    /// The physical set-up (written as the trace's rig.toml).
+    pub rig: Rig,
+    /// The rig model's baseline parameters.
+    pub model_params: model::Params,
+    /// Effects switched on in the rig model.
+    pub effects: Vec<EffectInstance>,
+    /// The syringe pump (its bore must be the rig's).
+    pub pump: PumpConfig,
+    /// Water in the barrel at power-up (mL).
+    pub fill_ml: f64,
+    /// The pressure sensor.
+    pub sensor: SensorConfig,
+    /// Compliance of the line between the pump and a blockage (mL/kPa).
+    pub line_compliance_ml_per_kpa: f64,
+    /// Relief valve flow per kPa of line pressure when open (mL/s/kPa).
+    pub relief_conductance_ml_per_s_per_kpa: f64,
+    /// Speed of the advance drive (mm/s).
+    pub advance_speed_mm_per_s: f64,
+    /// The head slides forward only within this of D0 (mm): wider, it is
+    /// anchored in the sand.
+    pub anchor_clearance_mm: f64,
+}
+
+impl PlantConfig {
+    /// The paper's rig ([`Rig::paper_default`]) with the skin the firmware
+    /// table was generated from ([`crate::skin::default_skin`]), so a
+    /// healthy plant matches the table; the board's pump and sensor; a
+    /// half-full 50 mL syringe; a stiff line (0.02 mL/kPa: 100 kPa/s at
+    /// 2 mL/s against a blockage); a relief valve venting 2 mL/s per kPa
+    /// (10 ms time constant on the blocked line); an advance drive at
+    /// 1 mm/s (1 mm per default 1 s advance, the paper's advance per
+    /// cycle) that cannot pull a head wider than D0 + 0.2 mm.
+    pub fn paper() -> Self {
+        let skin = crate::skin::default_skin();
+        let sensor = SensorConfig::default();
+        let pump = PumpConfig::default();
+        let mut rig = Rig::paper_default();
+        rig.skin = Some(Skin {
+            c10_kpa: skin.c10_kpa,
+            c20_kpa: skin.c20_kpa,
+            c30_kpa: skin.c30_kpa,
+        });
+        rig.pump.syringe_bore_mm = f64::from(pump.syringe_bore_mm);
+        rig.measurement.pressure_noise_kpa = Some(sensor.noise_kpa);
+        Self {
+            rig,
+            model_params: model::Params::default(),
+            effects: Vec::new(),
+            pump,
+            fill_ml: 25.0,
+            sensor,
+            line_compliance_ml_per_kpa: 0.02,
+            relief_conductance_ml_per_s_per_kpa: 2.0,
+            advance_speed_mm_per_s: 1.0,
+            anchor_clearance_mm: 0.2,
+        }
+    }
+
+    /// Time constant τ = C/g of the relief valve venting a blocked line (s).
+    pub fn vent_time_constant_s(&self) -> f64 {
+        self.line_compliance_ml_per_kpa / self.relief_conductance_ml_per_s_per_kpa
+    }
+}
+
+/// A fault put into the plant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlantFault {
+    /// The line blocks between the sensor and the head.
+    BlockLine,
+    /// The motor loses its steps (the driver still counts them).
+    PumpStall,
+    /// A sensor failure.
+    Sensor(SensorFault),
+}
+
+/// The plant's true state at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Truth {
+    /// Gauge pressure at the sensor (kPa).
+    pub line_kpa: f64,
+    /// What the line sensor would read at the head's side of a blockage
+    /// (kPa): equal to `line_kpa` unless blocked.
+    pub behind_kpa: f64,
+    /// Gauge pressure inside the head (kPa).
+    pub internal_kpa: f64,
+    /// Outer diameter of the expansion zone (mm).
+    pub diameter_mm: f64,
+    /// Water delivered into the rig model (mL).
+    pub delivered_ml: f64,
+    /// Volume in the head past rest (mL).
+    pub actuator_volume_ml: f64,
+    /// Net volume the plunger pushed out since power-up (mL).
+    pub displaced_ml: f64,
+    /// Water left in the barrel (mL).
+    pub barrel_ml: f64,
+    /// Microsteps the driver counted.
+    pub counted_steps: i32,
+    /// Volume vented by the relief valve so far (mL).
+    pub vented_ml: f64,
+    /// Distance the advance drive moved the head (mm).
+    pub advance_mm: f64,
+    /// End-stop switches.
+    pub end_stops: EndStops,
+    /// The line is blocked.
+    pub blocked: bool,
+}
+
+/// The plant.
+#[derive(Debug)]
+pub struct Plant {
+    config: PlantConfig,
+    model: RigModel,
+    run: RunState,
+    pump: StepperPump,
+    sensor: Sensor,
+    /// Delivered volume frozen by a blockage (mL).
+    blocked_at_ml: Option<f64>,
+    vented_ml: f64,
+    valve_open: bool,
+    advance_on: bool,
+    advance_mm: f64,
+    t_ms: u32,
+    truth: Truth,
+}
+
+impl Plant {
+    /// A plant at rest at sand cover `depth_mm`, noise drawn from `seed`.
+    pub fn new(config: &PlantConfig, depth_mm: f64, seed: u64) -> Result<Self> {
+        ensure!(
+            config.pump.validate().is_ok(),
+            "pump configuration {:?} is invalid",
+            config.pump
+        );
+        ensure!(
+            (config.rig.pump.syringe_bore_mm - f64::from(config.pump.syringe_bore_mm)).abs() < 1e-6,
+            "rig.toml syringe_bore_mm = {} differs from the pump's {} mm",
+            config.rig.pump.syringe_bore_mm,
+            config.pump.syringe_bore_mm
+        );
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        ensure!(
+            positive(config.line_compliance_ml_per_kpa)
+                && positive(config.relief_conductance_ml_per_s_per_kpa),
+            "line compliance and relief conductance must be > 0"
+        );
+        let model = RigModel::with_basis(
+            rig_basis(&config.rig)?,
+            &config.model_params,
+            &config.effects,
+        )?;
+        let mut run = model.start_run(depth_mm);
+        let rest = model.step(&mut run, 0.0, 0.0);
+        let pump = StepperPump::new(config.pump, config.fill_ml);
+        let sensor = Sensor::new(config.sensor, seed, rest.sensor_kpa)?;
+        let mut plant = Self {
+            config: config.clone(),
+            model,
+            run,
+            pump,
+            sensor,
+            blocked_at_ml: None,
+            vented_ml: 0.0,
+            valve_open: false,
+            advance_on: false,
+            advance_mm: 0.0,
+            t_ms: 0,
+            truth: Truth {
+                line_kpa: rest.sensor_kpa,
+                behind_kpa: rest.sensor_kpa,
+                internal_kpa: rest.internal_kpa,
+                diameter_mm: rest.diameter_mm,
+                delivered_ml: 0.0,
+                actuator_volume_ml: rest.actuator_volume_ml,
+                displaced_ml: 0.0,
+                barrel_ml: config.fill_ml,
+                counted_steps: 0,
+                vented_ml: 0.0,
+                advance_mm: 0.0,
+                end_stops: EndStops::default(),
+                blocked: false,
+            },
+        };
+        plant.truth.end_stops = plant.pump.end_stops();
+        plant.truth.barrel_ml = plant.pump.barrel_ml();
+        Ok(plant)
+    }
+
+    /// Its configuration.
+    pub fn config(&self) -> &PlantConfig {
+        &self.config
+    }
+
+    /// The sensor sample the controller sees now.
+    pub fn sample(&self) -> PressureSample {
+        self.sensor.sample()
+    }
+
+    /// The pump volume the controller sees now (mL).
+    pub fn pump_volume_ml(&self) -> f32 {
+        self.pump.reported_volume_ml()
+    }
+
+    /// The end-stops the controller sees now.
+    pub fn end_stops(&self) -> EndStops {
+        self.pump.end_stops()
+    }
+
+    /// The true state now.
+    pub fn truth(&self) -> Truth {
+        self.truth
+    }
+
+    /// Injects a fault now.
+    pub fn inject(&mut self, fault: PlantFault) {
+        match fault {
+            PlantFault::BlockLine => {
+                if self.blocked_at_ml.is_none() {
+                    self.blocked_at_ml = Some(self.truth.delivered_ml);
+                }
+            }
+            PlantFault::PumpStall => self.pump.set_stalled(true),
+            PlantFault::Sensor(f) => self.sensor.set_fault(Some(f)),
+        }
+    }
+
+    /// Applies the controller's outputs at `now_ms`.
+    pub fn apply(&mut self, outputs: &Outputs, now_ms: u32) {
+        self.pump.apply(outputs.pump, us_from_ms(now_ms));
+        self.valve_open = outputs.relief_valve_open;
+        self.advance_on = outputs.advance_drive;
+    }
+
+    /// The pump command in force.
+    pub fn pump_command(&self) -> PumpCommand {
+        self.pump.command()
+    }
+
+    /// Runs the plant from `from_ms` for `period_ms` in 1 ms sub-steps,
+    /// calling `each_ms(t_ms, truth)` at the end of every millisecond.
+    pub fn run_period(
+        &mut self,
+        from_ms: u32,
+        period_ms: u32,
+        mut each_ms: impl FnMut(u32, &Truth),
+    ) -> Result<()> {
+        for k in 0..period_ms / SUBSTEP_MS {
+            let t0 = from_ms + k * SUBSTEP_MS;
+            let t1 = t0 + SUBSTEP_MS;
+            self.substep(t0, t1);
+            each_ms(t1, &self.truth);
+        }
+        Ok(())
+    }
+
+    /// One sub-step `[t0_ms, t1_ms)`.
+    fn substep(&mut self, t0_ms: u32, t1_ms: u32) {
+        let dt_s = f64::from(t1_ms - t0_ms) / 1000.0;
+        self.pump.advance(us_from_ms(t0_ms), us_from_ms(t1_ms));
+        let displaced = self.pump.displaced_ml();
+        // The valve vents g·p_line. Implicit Euler on a blocked line, whose
+        // stiffness 1/C is known and large (stable for any τ = C/g); the
+        // head's own stiffness (a few kPa/mL) is mild enough for the
+        // explicit rate.
+        if self.valve_open {
+            let g = self.config.relief_conductance_ml_per_s_per_kpa;
+            let stiffness = if self.blocked_at_ml.is_some() {
+                1.0 / self.config.line_compliance_ml_per_kpa
+            } else {
+                0.0
+            };
+            self.vented_ml += g * self.truth.line_kpa * dt_s / (1.0 + g * stiffness * dt_s);
+        }
+        let upstream_ml = displaced - self.vented_ml;
+        let (delivered, stored) = match self.blocked_at_ml {
+            Some(frozen) => (frozen, upstream_ml - frozen),
+            None => (upstream_ml, 0.0),
+        };
+        let p = self
+            .model
+            .step(&mut self.run, f64::from(t1_ms) / 1000.0, delivered);
+        let line_kpa = p.sensor_kpa + stored / self.config.line_compliance_ml_per_kpa;
+        // The drive slides the head only once it is back near D0.
+        let free = p.diameter_mm
+            <= self.config.rig.actuator.initial_diameter_mm + self.config.anchor_clearance_mm;
+        if self.advance_on && free {
+            self.advance_mm += self.config.advance_speed_mm_per_s * dt_s;
+        }
+        self.truth = Truth {
+            line_kpa,
+            behind_kpa: p.sensor_kpa,
+            internal_kpa: p.internal_kpa,
+            diameter_mm: p.diameter_mm,
+            delivered_ml: delivered,
+            actuator_volume_ml: p.actuator_volume_ml,
+            displaced_ml: displaced,
+            barrel_ml: self.pump.barrel_ml(),
+            counted_steps: self.pump.counted_steps(),
+            vented_ml: self.vented_ml,
+            advance_mm: self.advance_mm,
+            end_stops: self.pump.end_stops(),
+            blocked: self.blocked_at_ml.is_some(),
+        };
+        self.t_ms = t1_ms;
+        self.sensor.tick(t1_ms, line_kpa);
+    }
+}
+
+/// The rig model's basis for `rig` (its skin curve takes the thick-tube
+/// solution at hundreds of diameters), built once per distinct rig in the
+/// process: the randomized scenarios all share one.
+fn rig_basis(rig: &Rig) -> Result<Arc<RigBasis>> {
+    type Bases = Mutex<Vec<(Rig, Arc<RigBasis>)>>;
+    static BASES: OnceLock<Bases> = OnceLock::new();
+    let bases = BASES.get_or_init(|| Mutex::new(Vec::new()));
+    // A poisoned lock only means another thread panicked mid-insert; the
+    // list itself is still whole.
+    let mut bases = bases.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, basis)) = bases.iter().find(|(r, _)| r == rig) {
+        return Ok(Arc::clone(basis));
+    }
+    let basis = RigBasis::new(rig)?;
+    bases.push((rig.clone(), Arc::clone(&basis)));
+    Ok(basis)
+}
