@@ -43,6 +43,34 @@ enum Command {
         #[command(subcommand)]
         what: BenchCommand,
     },
+    /// Run the firmware's own controller against the emulated plant: a named
+    /// scenario (`--list`), its trace written as an experiment folder with
+    /// states.tsv, plot.svg and outcome.json; or record the QEMU replays.
+    Emulate {
+        /// Scenario name (see --list).
+        #[arg(long, required_unless_present_any = ["list", "export_replay"])]
+        scenario: Option<String>,
+        /// Folder for the trace; default: emulate-NAME.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Seed of the plant's noise and bus errors.
+        #[arg(long, default_value_t = host_sim::emulate::DEFAULT_SEED)]
+        seed: u64,
+        /// List the scenarios with what each must show.
+        #[arg(long)]
+        list: bool,
+        /// Record the QEMU replays (tests/qemu/replay/*.bin and the index
+        /// tests/qemu/src/replay_data.rs); with --scenario, only that one.
+        #[arg(long = "export-replay")]
+        export_replay: bool,
+        /// With --export-replay: write nothing, fail if a committed
+        /// recording differs from what the host produces now.
+        #[arg(long, requires = "export_replay")]
+        check: bool,
+        /// Repository root (for --export-replay).
+        #[arg(long, default_value_os_t = default_repo_root())]
+        repo: PathBuf,
+    },
     /// Convert a raw serial capture of the board's telemetry into an
     /// experiment folder (rig.toml + runs.csv).
     Telemetry {
@@ -114,6 +142,42 @@ fn run(cli: Cli) -> Result<()> {
                 progress: true,
             })?;
             print!("{}", report.table());
+        }
+        Command::Emulate {
+            scenario,
+            out,
+            seed,
+            list,
+            export_replay,
+            check,
+            repo,
+        } => {
+            use host_sim::emulate;
+            if list {
+                print!("{}", emulate::scenario::list_text()?);
+            } else if export_replay {
+                let done = emulate::replay::export(&repo, seed, scenario.as_deref(), check)?;
+                for (name, steps) in &done.steps {
+                    println!("{name}: {steps} steps");
+                }
+                let verb = if check { "checked" } else { "wrote" };
+                println!(
+                    "{verb} {} files ({} bytes of recordings)",
+                    done.files.len(),
+                    done.bytes
+                );
+            } else if let Some(name) = scenario {
+                let trace = emulate::run(&emulate::named(&name)?, seed)?;
+                let outcome = emulate::evaluate(&trace);
+                let dir = out.unwrap_or_else(|| PathBuf::from(format!("emulate-{name}")));
+                emulate::trace::write(&trace, &outcome, &dir)?;
+                print!("{}", outcome.text());
+                println!("wrote {}", dir.display());
+                anyhow::ensure!(
+                    outcome.passed(),
+                    "scenario `{name}` did not show its expected outcome"
+                );
+            }
         }
         Command::Telemetry {
             capture,
