@@ -90,6 +90,33 @@ enum Command {
         #[arg(long = "depth-mm")]
         depth_mm: Option<f64>,
     },
+    /// Calibrate the model (model.toml's effects, or the baseline) on an
+    /// experiment folder and show where it fails: residual statistics by
+    /// run, depth, flow rate and phase, sentences, SVG plots in EXP/workbench/.
+    Compare {
+        /// Experiment folder (shared/data-format.md).
+        exp: PathBuf,
+    },
+    /// Find the missing physical effect: rank every library effect by
+    /// ΔBIC and held-out error, select greedily, report parameters with
+    /// uncertainties and any unexplained residual. With --add, add an effect
+    /// to EXP/model.toml, refit and append EXP/ledger.json.
+    Diagnose {
+        /// Experiment folder.
+        exp: PathBuf,
+        /// Print the diagnosis as JSON (documented in host-sim/README-workbench.md).
+        #[arg(long)]
+        json: bool,
+        /// Add this effect to the folder's model, refit, record in the ledger.
+        #[arg(long)]
+        add: Option<String>,
+    },
+    /// Print the folder's model ledger and plot the error per version
+    /// (EXP/workbench/ledger.svg).
+    Ledger {
+        /// Experiment folder.
+        exp: PathBuf,
+    },
 }
 
 /// What `host-sim bench` measures.
@@ -178,6 +205,27 @@ fn run(cli: Cli) -> Result<()> {
                     "scenario `{name}` did not show its expected outcome"
                 );
             }
+        }
+        Command::Compare { exp } => {
+            print!("{}", host_sim::workbench::commands::compare(&exp)?.text());
+        }
+        Command::Diagnose { exp, json, add } => {
+            let outcome = host_sim::workbench::commands::diagnose_folder(
+                &exp,
+                add.as_deref(),
+                &host_sim::workbench::diagnose::DiagnoseOptions::default(),
+            )?;
+            match (&outcome, json) {
+                (host_sim::workbench::commands::DiagnoseOutcome::Diagnosis(d), true) => {
+                    println!("{}", serde_json::to_string_pretty(d)?);
+                }
+                _ => print!("{}", outcome.text()),
+            }
+        }
+        Command::Ledger { exp } => {
+            let (entries, svg) = host_sim::workbench::commands::ledger(&exp)?;
+            print!("{}", host_sim::workbench::commands::ledger_text(&entries));
+            println!("wrote {}", svg.display());
         }
         Command::Telemetry {
             capture,

@@ -10,7 +10,7 @@ use crate::model::RigModel;
 /// Largest number of samples calibration steps through; bigger folders
 /// are thinned (every k-th sample of each run) for fitting, and scored
 /// on every sample.
-pub const MAX_FIT_SAMPLES: usize = 8000;
+pub const MAX_FIT_SAMPLES: usize = 4000;
 
 /// Runs plus their readings, flattened.
 #[derive(Clone, Debug)]

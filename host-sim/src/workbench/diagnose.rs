@@ -211,6 +211,19 @@ pub fn fit_effects(
     calibrate(&space, data, None, options)
 }
 
+/// The noise floor (kPa) and where it came from: rig.toml's
+/// `pressure_noise_kpa` when given, else estimated from the second
+/// differences of residual `r` over `data`.
+pub fn noise_floor(experiment: &Experiment, data: &Dataset, r: &[f64]) -> (f64, String) {
+    match experiment.rig.measurement.pressure_noise_kpa {
+        Some(s) if s > 0.0 => (s, "rig.toml measurement.pressure_noise_kpa".to_owned()),
+        _ => (
+            noise_floor_estimate(data, r),
+            "estimated from second differences of the baseline residual".to_owned(),
+        ),
+    }
+}
+
 /// Starting points of a candidate's parameters: its defaults and, for an
 /// effect that starts switched off (default on the lower bound), a probe
 /// at 5 % of the range: a weak, partly confounded effect (a small bubble
@@ -239,13 +252,7 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
     let base_fit = fit_effects(&basis, &data, Params::default(), Vec::new(), opts.fit)?;
     let base_model = base_fit.model()?;
     let (base_r, _) = residual(&all, &base_model);
-    let (noise, noise_source) = match experiment.rig.measurement.pressure_noise_kpa {
-        Some(s) if s > 0.0 => (s, "rig.toml measurement.pressure_noise_kpa".to_owned()),
-        _ => (
-            noise_floor_estimate(&all, &base_r),
-            "estimated from second differences of the baseline residual".to_owned(),
-        ),
-    };
+    let (noise, noise_source) = noise_floor(experiment, &all, &base_r);
     let base_heldout = heldout(&base_fit, &data, &masks, opts);
     let baseline = score(&base_fit, base_heldout);
 

@@ -134,7 +134,8 @@ fn flow_bucket(p: &Prediction) -> i64 {
     if q >= 0.25 {
         ((q * 2.0).round() * 5.0) as i64
     } else {
-        (q * 10.0).round() as i64
+        // Phase changes between samples and creeping pumps.
+        0
     }
 }
 
@@ -212,7 +213,11 @@ pub fn analyse(data: &Dataset, r: &[f64], preds: &[Prediction]) -> ResidualRepor
         if *b < 0 {
             "hold".to_owned()
         } else {
-            format!("{:.1} mL/s", *b as f64 / 10.0)
+            if *b == 0 {
+                "below 0.25 mL/s".to_owned()
+            } else {
+                format!("{:.1} mL/s", *b as f64 / 10.0)
+            }
         }
     });
     let by_phase = grouped(preds.iter().map(|p| p.phase), r, |p| p.as_str().to_owned());
@@ -254,9 +259,13 @@ pub fn sentences(rep: &ResidualReport) -> Vec<String> {
         "Overall RMSE {:.3} kPa over {} samples (mean residual {:+.3} kPa).",
         rep.overall.rmse_kpa, rep.overall.n, rep.overall.mean_kpa
     )];
+    // Worst among groups holding at least 5 % of the samples: a handful
+    // of transition samples is not where the model fails.
+    let floor = rep.overall.n / 20;
     let worst = |groups: &[GroupStat]| {
         groups
             .iter()
+            .filter(|g| g.n >= floor)
             .max_by(|a, b| a.rmse_kpa.total_cmp(&b.rmse_kpa))
             .cloned()
     };
