@@ -226,3 +226,42 @@ fn json_has_the_documented_fields_and_free_water_rigs_work() {
     assert!(d.not_applicable.iter().any(|(n, _)| n == "wall_arching"));
     assert!(d.candidates.iter().any(|c| c.effect == "piston_friction"));
 }
+
+#[test]
+fn the_loop_add_an_effect_and_watch_the_error_fall() {
+    use host_sim::workbench::commands::{compare, diagnose_folder, ledger, DiagnoseOutcome};
+    let dir = tempfile::tempdir().unwrap();
+    let exp = case(vec![typical("line_loss").unwrap()], 0.05, 17)
+        .generate()
+        .unwrap();
+    exp.write(dir.path()).unwrap();
+    let opts = DiagnoseOptions::default();
+    // First diagnosis records the bare model as version 0.
+    match diagnose_folder(dir.path(), None, &opts).unwrap() {
+        DiagnoseOutcome::Diagnosis(d) => assert_eq!(d.selected, vec!["line_loss".to_owned()]),
+        other => panic!("{other:?}"),
+    }
+    assert!(dir.path().join("workbench/diagnosis.json").exists());
+    // Refused: unknown effect, effect that cannot act in a line-sensor rig.
+    assert!(diagnose_folder(dir.path(), Some("flux_capacitor"), &opts).is_err());
+    assert!(diagnose_folder(dir.path(), Some("piston_friction"), &opts).is_err());
+    diagnose_folder(dir.path(), Some("line_loss"), &opts).unwrap();
+    let (entries, svg) = ledger(dir.path()).unwrap();
+    assert_eq!(entries.len(), 2);
+    assert_eq!((entries[0].version, entries[1].version), (0, 1));
+    assert!(entries[0].effects.is_empty());
+    assert_eq!(entries[1].effects, vec!["line_loss".to_owned()]);
+    assert!(entries[1].rmse_kpa < 0.5 * entries[0].rmse_kpa);
+    assert!(entries[1].rmse_kpa <= 1.5 * 0.03);
+    assert!(svg.exists());
+    let model = std::fs::read_to_string(dir.path().join("model.toml")).unwrap();
+    assert!(model.contains("line_loss"));
+    // Adding it twice is refused; compare uses the model file.
+    assert!(diagnose_folder(dir.path(), Some("line_loss"), &opts).is_err());
+    let cmp = compare(dir.path()).unwrap();
+    assert_eq!(cmp.effects, vec!["line_loss".to_owned()]);
+    assert!(cmp.residual.overall.rmse_kpa <= 1.5 * 0.03);
+    assert!(cmp.files.iter().all(|f| f.exists()));
+    // The folder still reads as an experiment (no stray CSV written).
+    assert_eq!(Experiment::read(dir.path()).unwrap(), exp);
+}

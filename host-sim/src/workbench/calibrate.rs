@@ -394,3 +394,46 @@ pub fn effect_param<'a>(
     let key = format!("{}.{}", effect.name, param);
     params.iter().find(|p| p.name == key)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::workbench::synth::{case, typical};
+
+    #[test]
+    fn recovers_known_parameters_from_noise_free_data() {
+        let mut synth = case(vec![typical("line_loss").unwrap()], 0.1, 1);
+        synth.noise_kpa = 0.0;
+        let exp = synth.generate().unwrap();
+        let data = Dataset::new(&exp);
+        let basis = RigBasis::new(&exp.rig).unwrap();
+        let effects = vec![EffectInstance::with_defaults("line_loss").unwrap()];
+        let space = FitSpace::new(basis, &data, Params::default(), effects);
+        // Known skin: its scale is not fitted; the sand's three are.
+        assert_eq!(
+            space.names(),
+            [
+                "sand_at_rest_factor",
+                "sand_limit_factor",
+                "sand_rise_mm",
+                "line_loss.resistance_kpa_s_per_ml"
+            ]
+        );
+        let fit = calibrate(&space, &data, None, FitOptions::default()).unwrap();
+        // Readings are rounded to 1e-5 kPa: that is the only misfit.
+        assert!(fit.rmse_kpa < 1e-4, "{}", fit.rmse_kpa);
+        let want = [1.15, 0.9, Params::default().sand_rise_mm, 0.25];
+        for (p, w) in fit.params.iter().zip(want) {
+            assert!(
+                (p.value - w).abs() < 1e-3 * w,
+                "{}: {} vs {w}",
+                p.name,
+                p.value
+            );
+            assert!(p.std_error.is_some_and(|e| e < 1e-3 * w), "{p:?}");
+        }
+        // The inputs are untouched; the fit carries its own copy.
+        assert_eq!(space.start()[3], 0.0);
+        assert!((fit.space.start()[3] - 0.25).abs() < 1e-3);
+    }
+}

@@ -329,3 +329,51 @@ pub fn sentences(rep: &ResidualReport) -> Vec<String> {
     );
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::experiment::{Run, Sample};
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    fn white(n: usize, sigma: f64, seed: u64) -> (Dataset, Vec<f64>) {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+        let normal = Normal::new(0.0, sigma).unwrap();
+        let r: Vec<f64> = (0..n).map(|_| normal.sample(&mut rng)).collect();
+        let run = Run {
+            id: "w".into(),
+            depth_mm: 0.0,
+            samples: (0..n)
+                .map(|i| Sample {
+                    t_s: i as f64 * 0.01,
+                    volume_ml: 0.0,
+                    pressure_kpa: r[i],
+                    diameter_mm: None,
+                    extra: Vec::new(),
+                })
+                .collect(),
+        };
+        (Dataset::from_runs(vec![run]), r)
+    }
+
+    #[test]
+    fn white_noise_reads_as_noise() {
+        let (data, r) = white(20_000, 0.05, 3);
+        let sigma = noise_floor_estimate(&data, &r);
+        assert!((sigma - 0.05).abs() < 0.0025, "{sigma}");
+        let (lag1, z) = structure(&data, &r);
+        assert!(lag1.abs() < 0.03, "{lag1}");
+        assert!(z.abs() < 4.0, "{z}");
+        // A slow sine on top is structure.
+        let smooth: Vec<f64> = r
+            .iter()
+            .enumerate()
+            .map(|(i, x)| x + 0.2 * (i as f64 * 0.01).sin())
+            .collect();
+        let (lag1, z) = structure(&data, &smooth);
+        assert!(lag1 > 0.5 && z < -10.0, "{lag1} {z}");
+        assert!((correlation(&[1.0, 2.0, 3.0], &[2.0, 4.0, 6.0]) - 1.0).abs() < 1e-12);
+        assert_eq!(correlation(&[1.0, 1.0], &[2.0, 3.0]), 0.0);
+    }
+}
