@@ -100,11 +100,6 @@ impl PlantConfig {
             anchor_clearance_mm: 0.2,
         }
     }
-
-    /// Time constant τ = C/g of the relief valve venting a blocked line (s).
-    pub fn vent_time_constant_s(&self) -> f64 {
-        self.line_compliance_ml_per_kpa / self.relief_conductance_ml_per_s_per_kpa
-    }
 }
 
 /// A fault put into the plant.
@@ -118,13 +113,67 @@ pub enum PlantFault {
     Sensor(SensorFault),
 }
 
+/// Effects that change what the sensor reports, not the pressure in the
+/// line: the valve vents, and the limit protects, the line pressure without
+/// them.
+pub const SENSOR_BIAS_EFFECTS: [&str; 2] = ["sensor_gain", "sensor_offset"];
+
+/// The affine sensor bias of the plant's effects: the rig model's reading
+/// is `gain · line + offset` (the registry applies the physical reading
+/// terms, then the gain, then the offset).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorBias {
+    /// Factor (1 without `sensor_gain`).
+    pub gain: f64,
+    /// Offset (kPa; 0 without `sensor_offset`).
+    pub offset_kpa: f64,
+}
+
+impl SensorBias {
+    /// The bias of `effects`' `sensor_gain` and `sensor_offset`.
+    pub fn of(effects: &[EffectInstance]) -> Result<Self> {
+        let mut bias = Self {
+            gain: 1.0,
+            offset_kpa: 0.0,
+        };
+        for e in effects {
+            match e.spec.name {
+                "sensor_gain" => bias.gain = e.get("gain")?,
+                "sensor_offset" => bias.offset_kpa = e.get("offset_kpa")?,
+                _ => {}
+            }
+        }
+        ensure!(
+            bias.gain > 0.0,
+            "sensor_gain must be > 0, got {}",
+            bias.gain
+        );
+        Ok(bias)
+    }
+
+    /// The line pressure behind a reading (kPa).
+    pub fn line_kpa(&self, reading_kpa: f64) -> f64 {
+        (reading_kpa - self.offset_kpa) / self.gain
+    }
+
+    /// The reading of a line pressure (kPa).
+    pub fn sensed_kpa(&self, line_kpa: f64) -> f64 {
+        self.gain * line_kpa + self.offset_kpa
+    }
+}
+
 /// The plant's true state at one instant.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Truth {
-    /// Gauge pressure at the sensor (kPa).
+    /// Gauge pressure in the line at the sensor (kPa): what the relief
+    /// valve vents and the limit protects.
     pub line_kpa: f64,
-    /// What the line sensor would read at the head's side of a blockage
-    /// (kPa): equal to `line_kpa` unless blocked.
+    /// What the sensor element senses before its noise and resolution
+    /// (kPa): `line_kpa` through any sensor bias effect
+    /// ([`SENSOR_BIAS_EFFECTS`]); equal to it without one.
+    pub sensed_kpa: f64,
+    /// Line pressure on the head's side of a blockage (kPa): equal to
+    /// `line_kpa` unless blocked.
     pub behind_kpa: f64,
     /// Gauge pressure inside the head (kPa).
     pub internal_kpa: f64,
@@ -155,6 +204,7 @@ pub struct Truth {
 pub struct Plant {
     config: PlantConfig,
     model: RigModel,
+    bias: SensorBias,
     run: RunState,
     pump: StepperPump,
     sensor: Sensor,
@@ -193,13 +243,18 @@ impl Plant {
             &config.model_params,
             &config.effects,
         )?;
+        let bias = SensorBias::of(&config.effects)?;
         let mut run = model.start_run(depth_mm);
         let rest = model.step(&mut run, 0.0, 0.0);
         let pump = StepperPump::new(config.pump, config.fill_ml);
-        let sensor = Sensor::new(config.sensor, seed, rest.sensor_kpa)?;
+        // The board tares with the head at rest in free water (the data
+        // format's zero), not buried: in sand the rest reading is the
+        // sand's at-rest pressure.
+        let sensor = Sensor::new(config.sensor, seed, 0.0)?;
         let mut plant = Self {
             config: config.clone(),
             model,
+            bias,
             run,
             pump,
             sensor,
@@ -210,8 +265,9 @@ impl Plant {
             advance_mm: 0.0,
             t_ms: 0,
             truth: Truth {
-                line_kpa: rest.sensor_kpa,
-                behind_kpa: rest.sensor_kpa,
+                line_kpa: bias.line_kpa(rest.sensor_kpa),
+                sensed_kpa: rest.sensor_kpa,
+                behind_kpa: bias.line_kpa(rest.sensor_kpa),
                 internal_kpa: rest.internal_kpa,
                 diameter_mm: rest.diameter_mm,
                 delivered_ml: 0.0,
@@ -302,18 +358,22 @@ impl Plant {
         let dt_s = f64::from(t1_ms - t0_ms) / 1000.0;
         self.pump.advance(us_from_ms(t0_ms), us_from_ms(t1_ms));
         let displaced = self.pump.displaced_ml();
-        // The valve vents g·p_line. Implicit Euler on a blocked line, whose
-        // stiffness 1/C is known and large (stable for any τ = C/g); the
-        // head's own stiffness (a few kPa/mL) is mild enough for the
-        // explicit rate.
+        // The open valve vents g·p_line. A blocked line is a linear spring
+        // (p = p_head + stored/C) and vents exactly, exponentially with
+        // τ = C/g towards 0 gauge; through the head, whose stiffness is a
+        // few kPa/mL, the explicit rate is stable.
         if self.valve_open {
             let g = self.config.relief_conductance_ml_per_s_per_kpa;
-            let stiffness = if self.blocked_at_ml.is_some() {
-                1.0 / self.config.line_compliance_ml_per_kpa
-            } else {
-                0.0
+            self.vented_ml += match self.blocked_at_ml {
+                Some(frozen) => {
+                    let c = self.config.line_compliance_ml_per_kpa;
+                    let stored = displaced - self.vented_ml - frozen;
+                    let settled = -self.truth.behind_kpa * c;
+                    let after = settled + (stored - settled) * (-g * dt_s / c).exp();
+                    stored - after
+                }
+                None => g * self.truth.line_kpa * dt_s,
             };
-            self.vented_ml += g * self.truth.line_kpa * dt_s / (1.0 + g * stiffness * dt_s);
         }
         let upstream_ml = displaced - self.vented_ml;
         let (delivered, stored) = match self.blocked_at_ml {
@@ -323,7 +383,9 @@ impl Plant {
         let p = self
             .model
             .step(&mut self.run, f64::from(t1_ms) / 1000.0, delivered);
-        let line_kpa = p.sensor_kpa + stored / self.config.line_compliance_ml_per_kpa;
+        let behind_kpa = self.bias.line_kpa(p.sensor_kpa);
+        let line_kpa = behind_kpa + stored / self.config.line_compliance_ml_per_kpa;
+        let sensed_kpa = self.bias.sensed_kpa(line_kpa);
         // The drive slides the head only once it is back near D0.
         let free = p.diameter_mm
             <= self.config.rig.actuator.initial_diameter_mm + self.config.anchor_clearance_mm;
@@ -332,7 +394,8 @@ impl Plant {
         }
         self.truth = Truth {
             line_kpa,
-            behind_kpa: p.sensor_kpa,
+            sensed_kpa,
+            behind_kpa,
             internal_kpa: p.internal_kpa,
             diameter_mm: p.diameter_mm,
             delivered_ml: delivered,
@@ -346,7 +409,7 @@ impl Plant {
             blocked: self.blocked_at_ml.is_some(),
         };
         self.t_ms = t1_ms;
-        self.sensor.tick(t1_ms, line_kpa);
+        self.sensor.tick(t1_ms, sensed_kpa);
     }
 }
 

@@ -46,9 +46,12 @@ pub struct Trace {
     pub steps: Vec<StepRecord>,
     /// The injections, in order.
     pub injected: Vec<Injected>,
-    /// True line pressure (kPa) at every millisecond, index = time in ms
-    /// (the sensor's side of any blockage).
+    /// Line pressure at the sensor (kPa) at every millisecond, index =
+    /// time in ms ([`Truth::line_kpa`]).
     pub line_kpa_ms: Vec<f32>,
+    /// What the sensor element sensed (kPa), index = time in ms
+    /// ([`Truth::sensed_kpa`]).
+    pub sensed_kpa_ms: Vec<f32>,
     /// Whether a pump end-stop was closed, index = time in ms.
     pub end_stop_ms: Vec<bool>,
 }
@@ -71,6 +74,7 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
     // Index = time in ms: the state at 0, then the end of every millisecond.
     let start = plant.truth();
     let mut line_kpa_ms = vec![start.line_kpa as f32];
+    let mut sensed_kpa_ms = vec![start.sensed_kpa as f32];
     let mut end_stop_ms = vec![start.end_stops.empty || start.end_stops.full];
     // Entries into each state so far, with the time of the latest.
     let mut entries: Vec<(State, u32, u32)> = Vec::new();
@@ -137,6 +141,7 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
         plant.apply(&outputs, now_ms);
         plant.run_period(now_ms, CONTROL_PERIOD_MS, |_, t| {
             line_kpa_ms.push(t.line_kpa as f32);
+            sensed_kpa_ms.push(t.sensed_kpa as f32);
             let stops = t.end_stops;
             end_stop_ms.push(stops.empty || stops.full);
         })?;
@@ -161,6 +166,7 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
         steps,
         injected,
         line_kpa_ms,
+        sensed_kpa_ms,
         end_stop_ms,
     })
 }
