@@ -104,11 +104,8 @@ pub fn render_svg(trace: &Trace) -> Result<String> {
         let root = root
             .titled(
                 &format!(
-                    "{} (seed {}, depth {} mm): {}",
-                    trace.scenario.name,
-                    trace.seed,
-                    trace.scenario.depth_mm,
-                    trace.scenario.summary
+                    "emulated {} (seed {}, sand cover {} mm)",
+                    trace.scenario.name, trace.seed, trace.scenario.depth_mm
                 ),
                 ("sans-serif", 16),
             )
