@@ -27,7 +27,8 @@ total=$((nwarm + nbench + npack))
 declare -A ours peer
 for w in 1 2; do
     echo "== ours, $w worker(s) =="
-    out=$("$bin" bench dem --workers "$w" --steps-scale "$scale" | tee /dev/stderr)
+    out=$("$bin" bench dem --workers "$w" --steps-scale "$scale")
+    echo "$out"
     ours[$w]=$(sed -n 's/.*overall_psps=\([0-9.]*\).*/\1/p' <<<"$out")
 done
 
