@@ -21,10 +21,12 @@
 //!   an experiment folder (`compare`, `diagnose`, `ledger`);
 //! - [`emulate`]: the firmware's controller closed around a simulated plant
 //!   (scenarios, traces, QEMU replay recordings);
+//! - [`demo`]: the end-to-end demo on built-in defaults (`cargo demo`);
 //! - [`files`]: atomic result files.
 
 pub mod bench;
 pub mod dem;
+pub mod demo;
 pub mod effects;
 pub mod emulate;
 pub mod experiment;

@@ -19,6 +19,14 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// End-to-end demo on built-in defaults: skin fit, inflation in sand,
+    /// firmware table check, the firmware's controller burrowing in the
+    /// emulator, and the workbench's diagnosis of that run.
+    Demo {
+        /// Folder for every result.
+        #[arg(long, default_value = "out/demo")]
+        out: PathBuf,
+    },
     /// Regenerate the firmware's pressure→diameter table (src/table/generated.rs).
     Tables {
         /// Repository root (where the firmware's Cargo.toml is).
@@ -139,6 +147,16 @@ fn default_repo_root() -> PathBuf {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::Demo { out } => {
+            let report = host_sim::demo::run(&out)?;
+            for line in &report.lines {
+                println!("- {line}");
+            }
+            println!("results in {}:", out.display());
+            for file in &report.files {
+                println!("  {}", file.display());
+            }
+        }
         Command::Tables { repo, check } => {
             let (path, outcome) =
                 host_sim::tables::regenerate(&repo, &host_sim::physics_model(), check)?;
