@@ -109,9 +109,11 @@ fn step_interval_follows_rate_and_clamps() {
     assert_eq!(c.step_interval_us(-1.0), Some(419));
     // 0.1 mL/s: 4188.25 µs → 4189.
     assert_eq!(c.step_interval_us(0.1), Some(4189));
-    // Above the 2 mL/s maximum: clamped to it, 209.41 µs → 210.
-    assert_eq!(c.step_interval_us(5.0), Some(210));
+    // 2 mL/s: 209.41 µs → 210.
     assert_eq!(c.step_interval_us(2.0), Some(210));
+    // Above the 4 mL/s maximum: clamped to it, 104.70 µs → 105.
+    assert_eq!(c.step_interval_us(5.0), Some(105));
+    assert_eq!(c.step_interval_us(4.0), Some(105));
     // No motion.
     assert_eq!(c.step_interval_us(0.0), None);
     assert_eq!(c.step_interval_us(-0.0), None);
@@ -462,4 +464,15 @@ fn disable_blocks_further_steps() {
     assert_eq!(p.position_steps(), 1);
     done(p);
     delay.done();
+}
+
+#[test]
+fn default_cycle_rates_fit_the_default_pump() {
+    // The controller's default expand and shrink rates must be reachable by
+    // the default pump, or the pump clamps them and the cycle runs slower
+    // than its parameters say.
+    let pump = urechis::drivers::pump::PumpConfig::default();
+    let params = urechis::controller::Params::DEFAULT;
+    assert!(params.expand_rate_ml_per_s <= pump.max_rate_ml_per_s);
+    assert!(params.shrink_rate_ml_per_s <= pump.max_rate_ml_per_s);
 }

@@ -17,6 +17,12 @@
 //!   the stall monitor's rate (`stall_min_rise_kpa / stall_volume_ml`): a
 //!   flat internal pressure is a stalled pump or an open line, which the
 //!   stall monitor must judge, not a plateau;
+//! - the internal pressure rises at that rate over the newest half of the
+//!   window too, so the tail of a rising window cannot mask a pump that has
+//!   just stalled;
+//! - the reading is alive: fewer than [`PLATEAU_STATIC_READINGS`]
+//!   bit-identical readings in a row (a frozen sensor makes p_e look flat
+//!   while the skin estimate keeps rising; the sensor monitor judges it);
 //! - all of the above for [`PLATEAU_CONFIRM_SAMPLES`] fresh readings in a
 //!   row. While a frozen sensor or a stalled pump slides into the window,
 //!   the fitted slopes pass through the plateau's signature for a sample or
@@ -35,6 +41,12 @@ pub const PLATEAU_WINDOW_SAMPLES: usize = 20;
 /// Consecutive fresh readings that must all show the plateau (0.1 mL at
 /// the default 2 mL/s).
 pub const PLATEAU_CONFIRM_SAMPLES: u8 = 5;
+
+/// Bit-identical consecutive readings that make the reading count as
+/// static: no plateau is confirmed on them. A live sensor at the MS5837's
+/// resolution (about 1 Pa) with its noise (a few Pa) repeats a value three
+/// times in a row rarely; a frozen one does so at once.
+pub const PLATEAU_STATIC_READINGS: u8 = 3;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Sample {
@@ -57,6 +69,8 @@ pub struct PlateauDetector {
     last_taken_ms: Option<u32>,
     /// Consecutive fresh readings showing the plateau.
     confirmed: u8,
+    /// Consecutive fresh readings bit-identical to the previous one, plus one.
+    static_run: u8,
 }
 
 impl Default for PlateauDetector {
@@ -73,6 +87,7 @@ impl PlateauDetector {
             peak_slope_kpa_per_ml: 0.0,
             last_taken_ms: None,
             confirmed: 0,
+            static_run: 0,
         }
     }
 
@@ -103,6 +118,15 @@ impl PlateauDetector {
             return false;
         }
         self.last_taken_ms = Some(taken_ms);
+        let repeated = self
+            .window
+            .recent()
+            .is_some_and(|prev| prev.internal_kpa.to_bits() == internal_kpa.to_bits());
+        self.static_run = if repeated {
+            self.static_run.saturating_add(1)
+        } else {
+            1
+        };
         self.window.write(Sample {
             volume_ml,
             sand_kpa,
@@ -112,7 +136,9 @@ impl PlateauDetector {
             self.confirmed = 0;
             return false;
         }
-        let Some((sand_slope, internal_slope)) = self.slopes() else {
+        let (Some((sand_slope, internal_slope)), Some((_, recent_internal_slope))) =
+            (self.slopes(0), self.slopes(PLATEAU_WINDOW_SAMPLES / 2))
+        else {
             self.confirmed = 0;
             return false;
         };
@@ -125,7 +151,9 @@ impl PlateauDetector {
             && self.peak_slope_kpa_per_ml >= params.plateau_min_slope_kpa_per_ml
             && expansion_mm >= params.plateau_min_expansion_mm
             && sand_slope < fraction * self.peak_slope_kpa_per_ml
-            && internal_slope >= response_kpa_per_ml;
+            && internal_slope >= response_kpa_per_ml
+            && recent_internal_slope >= response_kpa_per_ml
+            && self.static_run < PLATEAU_STATIC_READINGS;
         self.confirmed = if looks_flat {
             self.confirmed.saturating_add(1)
         } else {
@@ -135,18 +163,19 @@ impl PlateauDetector {
     }
 
     /// Least-squares slopes (kPa/mL) of p_e and p_i against volume over the
-    /// window; None when the volumes do not spread (or are not finite).
-    fn slopes(&self) -> Option<(f32, f32)> {
-        let n = self.window.len() as f32;
+    /// window less its `skip` oldest samples; None when the volumes do not
+    /// spread (or are not finite).
+    fn slopes(&self, skip: usize) -> Option<(f32, f32)> {
+        let n = self.window.len().saturating_sub(skip) as f32;
         let (mut sv, mut se, mut si) = (0.0_f32, 0.0_f32, 0.0_f32);
-        for s in self.window.oldest_ordered() {
+        for s in self.window.oldest_ordered().skip(skip) {
             sv += s.volume_ml;
             se += s.sand_kpa;
             si += s.internal_kpa;
         }
         let (mv, me, mi) = (sv / n, se / n, si / n);
         let (mut sxx, mut sxe, mut sxi) = (0.0_f32, 0.0_f32, 0.0_f32);
-        for s in self.window.oldest_ordered() {
+        for s in self.window.oldest_ordered().skip(skip) {
             let dv = s.volume_ml - mv;
             sxx += dv * dv;
             sxe += dv * (s.sand_kpa - me);
@@ -196,6 +225,49 @@ mod tests {
         let k = feed(&mut det, |v| if v < 2.0 { 3.0 } else { 0.1 }, 400).unwrap();
         let last = 100 + PLATEAU_WINDOW_SAMPLES as u32 + u32::from(PLATEAU_CONFIRM_SAMPLES);
         assert!((101..=last).contains(&k), "k={k}");
+    }
+
+    /// Feeds p_e rising at 3 kPa/mL, then at 0.5 kPa/mL from 1 mL (still
+    /// above the plateau's 0.1 × 3): a sand curve bending towards its
+    /// plateau. At 2 mL (step 100) the reading goes wrong:
+    /// `after(k, p_before)` gives the internal reading from then on.
+    fn feed_failure(after: impl Fn(u32, f32) -> f32) -> Option<u32> {
+        let params = Params::DEFAULT;
+        let mut det = PlateauDetector::new();
+        let mut last = 0.0;
+        for k in 0..400 {
+            let v = 0.02 * k as f32;
+            // Skin estimate rising at 0.1 kPa/mL, as in `feed`.
+            let skin = 0.1 * v;
+            let sand = if v < 1.0 {
+                3.0 * v
+            } else {
+                3.0 + 0.5 * (v - 1.0)
+            };
+            let internal = if k < 100 { sand + skin } else { after(k, last) };
+            if k < 100 {
+                last = internal;
+            }
+            if det.observe(k * 10, v, internal - skin, internal, 2.0, &params) {
+                return Some(k);
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn a_frozen_reading_is_not_a_plateau() {
+        // The reading sticks at its last value: p_e = p − skin falls, which
+        // looks like the plateau's flat p_e, but nothing is measured.
+        assert_eq!(feed_failure(|_, last| last), None);
+    }
+
+    #[test]
+    fn a_stalled_pump_is_not_a_plateau() {
+        // The pump counts steps but the pressure only wobbles (±2 Pa): the
+        // internal pressure no longer responds to the counted volume.
+        let wobble = |k: u32, last: f32| last + if k % 2 == 0 { 0.002 } else { -0.002 };
+        assert_eq!(feed_failure(wobble), None);
     }
 
     #[test]

@@ -38,7 +38,9 @@ pub struct PumpConfig {
     /// 50 mL syringe.
     pub syringe_bore_mm: f32,
     /// Highest volume rate the pump will step at (mL/s); faster requests are
-    /// clamped. Default 2.0 (≈ 4800 microsteps/s, 1.5 rev/s with the defaults).
+    /// clamped. Default 4.0 (≈ 9550 microsteps/s, 3 rev/s = 180 rpm with the
+    /// defaults, well inside a NEMA 17's range on a 12–24 V driver), so the
+    /// controller's default shrink rate (4 mL/s) is not silently halved.
     pub max_rate_ml_per_s: f32,
     /// Usable syringe volume (mL). Default 50.0.
     pub stroke_ml: f32,
@@ -56,7 +58,7 @@ impl Default for PumpConfig {
             full_steps_per_rev: 200,
             microsteps: 16,
             syringe_bore_mm: 29.21,
-            max_rate_ml_per_s: 2.0,
+            max_rate_ml_per_s: 4.0,
             stroke_ml: 50.0,
             inject_dir_high: true,
             end_stop_polarity: SwitchPolarity::ActiveLow,
