@@ -266,7 +266,7 @@ mod tests {
     fn a_stalled_pump_is_not_a_plateau() {
         // The pump counts steps but the pressure only wobbles (±2 Pa): the
         // internal pressure no longer responds to the counted volume.
-        let wobble = |k: u32, last: f32| last + if k % 2 == 0 { 0.002 } else { -0.002 };
+        let wobble = |k: u32, last: f32| last + if k.is_multiple_of(2) { 0.002 } else { -0.002 };
         assert_eq!(feed_failure(wobble), None);
     }
 
