@@ -30,6 +30,7 @@ pub mod demo;
 pub mod effects;
 pub mod emulate;
 pub mod experiment;
+pub mod fem;
 pub mod files;
 pub mod model;
 pub mod pressure_model;

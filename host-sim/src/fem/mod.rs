@@ -1,0 +1,419 @@
+//! # FEM skin
+//!
+//! The expansion zone's skin as a 3D hyperelastic membrane: constant-strain
+//! triangles on the mid-surface of the tube ([`mesh`]), total Lagrangian,
+//! incompressible (thickness stretch λ3 = 1/(λ1·λ2)), with the strain
+//! energy of any [`StrainEnergy`] law (the skin model's Yeoh by default) —
+//! see [`element`]. Loaded by an internal pressure acting on the deformed
+//! surface (a follower load). Time integration is explicit central
+//! difference with lumped masses and mass-proportional damping
+//! ([`Skin::step`]); quasi-static states come from dynamic relaxation with
+//! kinetic damping ([`Skin::relax`]).
+//!
+//! SI units throughout (m, kg, s, N, Pa), like the DEM it is coupled to.
+//!
+//! ```
+//! use host_sim::fem::{Ends, Skin, SkinSpec};
+//! let mut skin = Skin::new(host_sim::skin::default_skin(), &SkinSpec::paper(16, 4), Ends::Clamped).unwrap();
+//! skin.pressure_pa = 500.0;
+//! skin.relax(1e-4, 200_000).unwrap();
+//! assert!(skin.outer_diameter_at_mid_length_m() > 18.7e-3);
+//! ```
+
+pub mod element;
+pub mod mesh;
+
+use nalgebra::{Matrix2, Vector3};
+
+use crate::skin::membrane::TubeGeometry;
+use crate::skin::StrainEnergy;
+use element::{internal_forces_n, Strain, Triangle};
+use mesh::TubeMesh;
+
+/// What can go wrong in the skin solver.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum FemError {
+    /// A parameter is out of its range.
+    #[error("FEM parameter {name} = {value} is out of range")]
+    Param {
+        /// Which parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A triangle collapsed or turned inside out (time step too large, or
+    /// a load the membrane cannot carry).
+    #[error("skin element {element} collapsed (det C ≤ 0 or not finite)")]
+    Collapsed {
+        /// Its index.
+        element: usize,
+    },
+    /// Dynamic relaxation did not reach the tolerance.
+    #[error("dynamic relaxation stopped after {steps} steps at residual {residual_n} N (tolerance {tolerance_n} N)")]
+    NotConverged {
+        /// Steps taken.
+        steps: usize,
+        /// Largest nodal out-of-balance force left (N).
+        residual_n: f64,
+        /// The tolerance asked for (N).
+        tolerance_n: f64,
+    },
+}
+
+impl FemError {
+    pub(crate) fn param(name: &'static str, value: f64) -> FemError {
+        FemError::Param { name, value }
+    }
+}
+
+/// Geometry, mesh density and density of the skin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkinSpec {
+    /// Rest mid-surface radius (m).
+    pub mid_radius_m: f64,
+    /// Rest wall thickness T (m).
+    pub thickness_m: f64,
+    /// Rest length of the zone (m).
+    pub length_m: f64,
+    /// Skin density (kg/m³).
+    pub density_kg_m3: f64,
+    /// Nodes round the circumference.
+    pub around: usize,
+    /// Element rows along the axis.
+    pub along: usize,
+}
+
+impl SkinSpec {
+    /// Density of the skin tissue (kg/m³): water-like soft tissue.
+    pub const TISSUE_DENSITY_KG_M3: f64 = 1050.0;
+
+    /// The mid-surface of a tube of rest geometry `g`: radius
+    /// (Ro + Ri)/2, thickness and length from `g`.
+    pub fn from_tube(g: &TubeGeometry, around: usize, along: usize) -> SkinSpec {
+        SkinSpec {
+            mid_radius_m: 0.5 * (g.outer_radius_mm() + g.inner_radius_mm()) * 1e-3,
+            thickness_m: g.wall_thickness_mm * 1e-3,
+            length_m: g.length_mm * 1e-3,
+            density_kg_m3: Self::TISSUE_DENSITY_KG_M3,
+            around,
+            along,
+        }
+    }
+
+    /// The paper's zone (D0 = 18.7 mm outer, 1.75 mm wall, 20 mm long).
+    pub fn paper(around: usize, along: usize) -> SkinSpec {
+        Self::from_tube(&TubeGeometry::PAPER, around, along)
+    }
+}
+
+/// How the ends of the zone are held.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ends {
+    /// End rings held axially, free radially: a long tube's uniform
+    /// inflation in plane strain (λz = 1), for verification.
+    PlaneStrain,
+    /// End rings fixed to the rigid rest of the body.
+    Clamped,
+}
+
+/// Result of a dynamic relaxation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Relaxed {
+    /// Steps taken.
+    pub steps: usize,
+    /// Largest nodal out-of-balance force left (N).
+    pub residual_n: f64,
+}
+
+/// The skin: mesh, law and the evolving nodal state.
+#[derive(Clone, Debug)]
+pub struct Skin<S: StrainEnergy> {
+    /// The strain-energy law.
+    pub law: S,
+    /// Rest geometry and mesh density.
+    pub spec: SkinSpec,
+    /// The mid-surface mesh.
+    pub mesh: TubeMesh,
+    /// Element reference data, one per `mesh.triangles` entry.
+    pub elements: Vec<Triangle>,
+    /// Current node positions (m).
+    pub position_m: Vec<Vector3<f64>>,
+    /// Node velocities (m/s), at the half step in [`Skin::step`].
+    pub velocity_m_s: Vec<Vector3<f64>>,
+    /// Lumped nodal masses (kg).
+    pub mass_kg: Vec<f64>,
+    /// Per node and component: held fixed.
+    pub fixed: Vec<[bool; 3]>,
+    /// Internal minus external fluid pressure on the inner surface (Pa).
+    pub pressure_pa: f64,
+    /// Mass-proportional damping coefficient c (1/s): the damping force
+    /// on a node is −c·m·v. Default 0.
+    pub damping_per_s: f64,
+    /// Forces from outside the skin (contacts) on each node (N), applied
+    /// by [`Skin::step`] and left for the caller to clear.
+    pub external_force_n: Vec<Vector3<f64>>,
+    /// Simulated time (s).
+    pub time_s: f64,
+}
+
+impl<S: StrainEnergy> Skin<S> {
+    /// A skin of law `law`, geometry `spec`, held by `ends`, at rest.
+    pub fn new(law: S, spec: &SkinSpec, ends: Ends) -> Result<Skin<S>, FemError> {
+        if !(spec.thickness_m > 0.0 && spec.thickness_m.is_finite()) {
+            return Err(FemError::param("thickness_m", spec.thickness_m));
+        }
+        if !(spec.density_kg_m3 > 0.0 && spec.density_kg_m3.is_finite()) {
+            return Err(FemError::param("density_kg_m3", spec.density_kg_m3));
+        }
+        let mesh = TubeMesh::tube(spec.mid_radius_m, spec.length_m, spec.around, spec.along)?;
+        let n = mesh.rest_m.len();
+        let mut elements = Vec::with_capacity(mesh.triangles.len());
+        let mut mass_kg = vec![0.0; n];
+        for (k, t) in mesh.triangles.iter().enumerate() {
+            let tri = Triangle::new(*t, t.map(|a| mesh.rest_m[a]))
+                .ok_or(FemError::Collapsed { element: k })?;
+            for a in t {
+                mass_kg[*a] += spec.density_kg_m3 * spec.thickness_m * tri.area_m2 / 3.0;
+            }
+            elements.push(tri);
+        }
+        let mut fixed = vec![[false; 3]; n];
+        for j in [0, mesh.along] {
+            for a in mesh.ring(j) {
+                fixed[a] = match ends {
+                    Ends::PlaneStrain => [false, false, true],
+                    Ends::Clamped => [true; 3],
+                };
+            }
+        }
+        Ok(Skin {
+            law,
+            spec: *spec,
+            position_m: mesh.rest_m.clone(),
+            velocity_m_s: vec![Vector3::zeros(); n],
+            external_force_n: vec![Vector3::zeros(); n],
+            mesh,
+            elements,
+            mass_kg,
+            fixed,
+            pressure_pa: 0.0,
+            damping_per_s: 0.0,
+            time_s: 0.0,
+        })
+    }
+
+    /// Number of nodes.
+    pub fn node_count(&self) -> usize {
+        self.position_m.len()
+    }
+
+    /// Strain of element `k` at the current positions.
+    pub fn strain(&self, k: usize) -> Result<Strain, FemError> {
+        let tri = &self.elements[k];
+        tri.strain(tri.nodes.map(|a| self.position_m[a]))
+            .ok_or(FemError::Collapsed { element: k })
+    }
+
+    /// Membrane 2nd Piola–Kirchhoff stress of element `k` (Pa).
+    fn stress(&self, e: &Strain) -> Matrix2<f64> {
+        e.second_piola_kirchhoff_pa(&self.law)
+    }
+
+    /// Total strain energy (J) at the current positions.
+    pub fn strain_energy_j(&self) -> Result<f64, FemError> {
+        (0..self.elements.len())
+            .map(|k| {
+                let e = self.strain(k)?;
+                Ok(e.energy_density_pa(&self.law)
+                    * self.elements[k].area_m2
+                    * self.spec.thickness_m)
+            })
+            .sum()
+    }
+
+    /// Internal nodal forces ∂E/∂x (N) at the current positions into `out`.
+    pub fn internal_forces_n(&self, out: &mut [Vector3<f64>]) -> Result<(), FemError> {
+        out.iter_mut().for_each(|f| *f = Vector3::zeros());
+        for (k, tri) in self.elements.iter().enumerate() {
+            let e = self.strain(k)?;
+            let f = internal_forces_n(tri, &e, &self.stress(&e), self.spec.thickness_m);
+            for (a, fa) in tri.nodes.iter().zip(f) {
+                out[*a] += fa;
+            }
+        }
+        Ok(())
+    }
+
+    /// Nodal forces (N) of the internal pressure on the deformed surface,
+    /// added to `out`: p times each triangle's area vector, a third per node.
+    pub fn add_pressure_forces_n(&self, out: &mut [Vector3<f64>]) {
+        for tri in &self.elements {
+            let [a, b, c] = tri.nodes.map(|a| self.position_m[a]);
+            let share = (b - a).cross(&(c - a)) * (self.pressure_pa / 6.0);
+            for n in tri.nodes {
+                out[n] += share;
+            }
+        }
+    }
+
+    /// Out-of-balance force on each node (N): pressure + external −
+    /// internal, zero on fixed components.
+    pub fn residual_n(&self, out: &mut [Vector3<f64>]) -> Result<(), FemError> {
+        self.internal_forces_n(out)?;
+        out.iter_mut().for_each(|f| *f = -*f);
+        self.add_pressure_forces_n(out);
+        for ((r, ext), fix) in out.iter_mut().zip(&self.external_force_n).zip(&self.fixed) {
+            *r += ext;
+            for k in 0..3 {
+                if fix[k] {
+                    r[k] = 0.0;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A stable explicit time step (s) at the current strain: half the
+    /// smallest element transit time of the bounded wave speed.
+    pub fn stable_time_step_s(&self) -> Result<f64, FemError> {
+        let mut dt = f64::INFINITY;
+        for (k, tri) in self.elements.iter().enumerate() {
+            let e = self.strain(k)?;
+            let c2 = e.tangent_modulus_bound_pa(&self.law) / self.spec.density_kg_m3;
+            dt = dt.min(tri.min_altitude_m / c2.sqrt());
+        }
+        Ok(0.5 * dt)
+    }
+
+    /// Advances by `dt_s` (s) with central differences: with forces at the
+    /// current positions, v(t + dt/2) from v(t − dt/2) (mass-proportional
+    /// damping, implicit in the damping term), then x(t + dt).
+    pub fn step(&mut self, dt_s: f64) -> Result<(), FemError> {
+        if !(dt_s > 0.0 && dt_s.is_finite()) {
+            return Err(FemError::param("dt_s", dt_s));
+        }
+        let mut r = vec![Vector3::zeros(); self.node_count()];
+        self.residual_n(&mut r)?;
+        let c = 0.5 * self.damping_per_s * dt_s;
+        for (((x, v), m), f) in self
+            .position_m
+            .iter_mut()
+            .zip(&mut self.velocity_m_s)
+            .zip(&self.mass_kg)
+            .zip(&r)
+        {
+            *v = (*v * (1.0 - c) + f * (dt_s / m)) / (1.0 + c);
+            *x += *v * dt_s;
+        }
+        self.time_s += dt_s;
+        Ok(())
+    }
+
+    /// Dynamic relaxation to the static equilibrium under the current loads
+    /// (pressure and `external_force_n`), with kinetic damping: velocities
+    /// are zeroed whenever the kinetic energy passes a peak. Stops when the
+    /// largest nodal out-of-balance force is below `tolerance_n` (N);
+    /// errs after `max_steps`. Leaves the skin at rest; time is not advanced.
+    pub fn relax(&mut self, tolerance_n: f64, max_steps: usize) -> Result<Relaxed, FemError> {
+        let n = self.node_count();
+        let mut r = vec![Vector3::zeros(); n];
+        self.velocity_m_s
+            .iter_mut()
+            .for_each(|v| *v = Vector3::zeros());
+        let mut dt = self.stable_time_step_s()?;
+        let mut ke_prev = 0.0;
+        let mut residual = f64::INFINITY;
+        for steps in 0..max_steps {
+            if steps % 64 == 63 {
+                dt = self.stable_time_step_s()?;
+            }
+            self.residual_n(&mut r)?;
+            residual = r.iter().map(|f| f.norm()).fold(0.0, f64::max);
+            if residual <= tolerance_n {
+                self.velocity_m_s
+                    .iter_mut()
+                    .for_each(|v| *v = Vector3::zeros());
+                return Ok(Relaxed {
+                    steps,
+                    residual_n: residual,
+                });
+            }
+            let mut ke = 0.0;
+            for ((v, m), f) in self.velocity_m_s.iter_mut().zip(&self.mass_kg).zip(&r) {
+                *v += f * (dt / m);
+                ke += 0.5 * m * v.norm_squared();
+            }
+            if ke < ke_prev {
+                // Past the peak: the state is near a minimum of the total
+                // potential along the motion; restart from rest.
+                self.velocity_m_s
+                    .iter_mut()
+                    .for_each(|v| *v = Vector3::zeros());
+                ke = 0.0;
+            }
+            ke_prev = ke;
+            for a in 0..n {
+                self.position_m[a] += self.velocity_m_s[a] * dt;
+            }
+        }
+        Err(FemError::NotConverged {
+            steps: max_steps,
+            residual_n: residual,
+            tolerance_n,
+        })
+    }
+
+    /// Mean current mid-surface radius of ring `j` about the z axis (m).
+    pub fn ring_radius_m(&self, j: usize) -> f64 {
+        let ring = self.mesh.ring(j);
+        let n = ring.len() as f64;
+        ring.map(|a| self.position_m[a].xy().norm()).sum::<f64>() / n
+    }
+
+    /// Current wall thickness (m) of the elements touching ring `j`, mean.
+    pub fn ring_thickness_m(&self, j: usize) -> Result<f64, FemError> {
+        let ring = self.mesh.ring(j);
+        let mut sum = 0.0;
+        let mut count = 0usize;
+        for (k, tri) in self.elements.iter().enumerate() {
+            if tri.nodes.iter().any(|a| ring.contains(a)) {
+                sum += self.strain(k)?.thickness_stretch();
+                count += 1;
+            }
+        }
+        Ok(self.spec.thickness_m * sum / count.max(1) as f64)
+    }
+
+    /// Outer diameter at mid-length (m): twice the middle ring's mean
+    /// mid-surface radius plus the current wall thickness there.
+    pub fn outer_diameter_at_mid_length_m(&self) -> f64 {
+        let j = self.mesh.middle_ring();
+        let t = self.ring_thickness_m(j).unwrap_or(self.spec.thickness_m);
+        2.0 * self.ring_radius_m(j) + t
+    }
+
+    /// von Mises stress of each element (Pa), plane stress.
+    pub fn von_mises_pa(&self) -> Result<Vec<f64>, FemError> {
+        (0..self.elements.len())
+            .map(|k| {
+                let e = self.strain(k)?;
+                Ok(e.von_mises_pa(&self.stress(&e)))
+            })
+            .collect()
+    }
+
+    /// Volume enclosed by the skin and the planes of its end rings (m³):
+    /// the flux of (x, y, 0)/2 through the lateral surface (none crosses
+    /// flat end caps normal to z).
+    pub fn enclosed_volume_m3(&self) -> f64 {
+        self.elements
+            .iter()
+            .map(|tri| {
+                let [a, b, c] = tri.nodes.map(|a| self.position_m[a]);
+                let area = 0.5 * (b - a).cross(&(c - a));
+                let centroid = (a + b + c) / 3.0;
+                0.5 * (centroid.x * area.x + centroid.y * area.y)
+            })
+            .sum()
+    }
+}

@@ -1,0 +1,135 @@
+//! The FEM skin against the closed-form tube inflation, and the
+//! consistency of its internal forces with its strain energy.
+
+use host_sim::fem::{Ends, Skin, SkinSpec};
+use host_sim::skin::membrane::{self, Tube, TubeGeometry};
+use host_sim::skin::{default_skin, Yeoh};
+use nalgebra::{Rotation3, Vector3};
+
+/// Wall of the thin reference tube (m): T/R ≈ 1e-5, so its thick-wall
+/// correction is ~1e-5 relative.
+const THIN_WALL_MM: f64 = 1e-4;
+
+/// Pressure (Pa) of the thin-wall (membrane) inflation of the zone's
+/// mid-surface at mid-surface diameter `mid_diameter_m`, in plane strain:
+/// the closed-form tube of the same mid-surface radius and a vanishing
+/// wall, its pressure scaled by T/t (a membrane's pressure is linear in
+/// its thickness).
+fn thin_wall_reference_pa(law: Yeoh, spec: &SkinSpec, mid_diameter_m: f64) -> f64 {
+    let mid_mm = 2.0 * spec.mid_radius_m * 1e3;
+    let g = TubeGeometry {
+        outer_diameter_mm: mid_mm + THIN_WALL_MM,
+        wall_thickness_mm: THIN_WALL_MM,
+        length_mm: spec.length_m * 1e3,
+    };
+    let tube = Tube::new(g, law, membrane::Ends::PlaneStrain).unwrap();
+    // Outer diameter of the thin tube whose mid-surface is at the target:
+    // the wall thins by λ3 = 1/λθ in plane strain.
+    let lambda = mid_diameter_m * 1e3 / mid_mm;
+    let d = mid_diameter_m * 1e3 + THIN_WALL_MM / lambda;
+    tube.pressure_kpa(d).unwrap() * 1e3 * (spec.thickness_m * 1e3) / THIN_WALL_MM
+}
+
+#[test]
+fn plane_strain_inflation_matches_the_closed_form_tube_within_2_percent() {
+    let law = default_skin();
+    let spec = SkinSpec::paper(32, 6);
+    let mut skin = Skin::new(law, &spec, Ends::PlaneStrain).unwrap();
+    // Pressures giving outer diameters from ~20 to 25 mm (thin-wall law).
+    let mut last_d = 18.7e-3;
+    for target_outer_mm in [20.0, 22.5, 25.0] {
+        // Mid-surface diameter whose outer diameter is the target:
+        // d + T/λ = D with λ = d/d0.
+        let (d0, t) = (2.0 * spec.mid_radius_m, spec.thickness_m);
+        let dd = target_outer_mm * 1e-3;
+        let mid = 0.5 * (dd + (dd * dd - 4.0 * t * d0).sqrt());
+        skin.pressure_pa = thin_wall_reference_pa(law, &spec, mid);
+        let tol = 1e-9 * skin.pressure_pa * spec.length_m * spec.mid_radius_m;
+        let r = skin.relax(tol, 400_000).unwrap();
+        let j = skin.mesh.middle_ring();
+        let got_mid = 2.0 * skin.ring_radius_m(j);
+        let want = thin_wall_reference_pa(law, &spec, got_mid);
+        let err = (skin.pressure_pa - want) / want;
+        let outer = skin.outer_diameter_at_mid_length_m();
+        println!(
+            "D = {:.3} mm: p = {:.2} Pa, closed form at that diameter {:.2} Pa, error {:+.3} % ({} steps)",
+            outer * 1e3,
+            skin.pressure_pa,
+            want,
+            100.0 * err,
+            r.steps
+        );
+        assert!(err.abs() < 0.02, "pressure error {err} at D = {outer}");
+        assert!(outer > last_d);
+        // Uniform: every ring at the same radius (plane strain holds).
+        for j in 0..=skin.mesh.along {
+            assert!((2.0 * skin.ring_radius_m(j) - got_mid).abs() < 1e-6 * got_mid);
+        }
+        last_d = outer;
+    }
+    assert!((last_d - 25e-3).abs() < 0.5e-3, "final D {last_d}");
+}
+
+fn perturbed_skin() -> Skin<Yeoh> {
+    let spec = SkinSpec::paper(12, 3);
+    let mut skin = Skin::new(default_skin(), &spec, Ends::Clamped).unwrap();
+    // A deterministic, non-symmetric finite deformation (stretch ~1.3 plus
+    // ±0.3 mm wobble), so every term of the stress is active.
+    for (a, x) in skin.position_m.iter_mut().enumerate() {
+        let s = a as f64;
+        *x = Vector3::new(1.3 * x.x, 1.25 * x.y, 1.1 * x.z)
+            + Vector3::new((1.7 * s).sin(), (2.3 * s).cos(), (0.9 * s).sin()) * 3e-4;
+    }
+    skin
+}
+
+#[test]
+fn internal_forces_are_the_gradient_of_the_strain_energy() {
+    let mut skin = perturbed_skin();
+    let mut f = vec![Vector3::zeros(); skin.node_count()];
+    skin.internal_forces_n(&mut f).unwrap();
+    let scale = f.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    let h = 1e-8;
+    let mut worst = 0.0f64;
+    for (a, fa) in f.iter().enumerate() {
+        for k in 0..3 {
+            let x0 = skin.position_m[a][k];
+            skin.position_m[a][k] = x0 + h;
+            let ep = skin.strain_energy_j().unwrap();
+            skin.position_m[a][k] = x0 - h;
+            let em = skin.strain_energy_j().unwrap();
+            skin.position_m[a][k] = x0;
+            let fd = (ep - em) / (2.0 * h);
+            worst = worst.max((fd - fa[k]).abs() / scale);
+        }
+    }
+    println!("largest |f − dE/dx| / max|f| = {worst:.2e}");
+    assert!(worst < 1e-6, "{worst}");
+}
+
+#[test]
+fn rigid_motions_leave_no_energy_or_force() {
+    let mut skin = perturbed_skin();
+    let e0 = skin.strain_energy_j().unwrap();
+    let mut f0 = vec![Vector3::zeros(); skin.node_count()];
+    skin.internal_forces_n(&mut f0).unwrap();
+    let rot = Rotation3::from_euler_angles(0.4, -1.1, 2.0);
+    let shift = Vector3::new(0.01, -0.02, 0.005);
+    for x in skin.position_m.iter_mut() {
+        *x = rot * *x + shift;
+    }
+    let e1 = skin.strain_energy_j().unwrap();
+    assert!((e1 - e0).abs() < 1e-12 * e0, "{e0} vs {e1}");
+    let mut f1 = vec![Vector3::zeros(); skin.node_count()];
+    skin.internal_forces_n(&mut f1).unwrap();
+    for (a, b) in f0.iter().zip(&f1) {
+        // Forces rotate with the body and sum to zero.
+        assert!((rot * a - b).norm() < 1e-9 * a.norm().max(1e-9));
+    }
+    let total: Vector3<f64> = f1.iter().sum();
+    assert!(total.norm() < 1e-9 * f1.iter().map(|v| v.norm()).sum::<f64>());
+    // At rest: no energy, no force, no stress.
+    let rest = Skin::new(default_skin(), &SkinSpec::paper(12, 3), Ends::Clamped).unwrap();
+    assert!(rest.strain_energy_j().unwrap().abs() < 1e-15);
+    assert!(rest.von_mises_pa().unwrap().iter().all(|s| s.abs() < 1e-9));
+}
