@@ -112,6 +112,11 @@ fn finds_hidden_wall_arching() {
     hidden("wall_arching", 9);
 }
 
+#[test]
+fn finds_hidden_sensor_lag() {
+    hidden("sensor_lag", 10);
+}
+
 /// Two hidden effects: both selected, both primaries within 15 %.
 fn pair(a: &str, b: &str, seed: u64) {
     let truths = vec![typical(a).unwrap(), typical(b).unwrap()];

@@ -32,6 +32,7 @@ pub mod line_loss;
 pub mod mullins_softening;
 pub mod piston_friction;
 pub mod sensor_gain;
+pub mod sensor_lag;
 pub mod sensor_offset;
 pub mod skin_viscoelasticity;
 pub mod trapped_air;
@@ -41,9 +42,10 @@ pub mod wall_arching;
 /// within a hook (volume, depth, skin: mullins before viscoelasticity;
 /// sensor: physical terms, then gain, then offset). A new effect is one
 /// file and one row here.
-pub static REGISTRY: [&EffectSpec; 9] = [
+pub static REGISTRY: [&EffectSpec; 10] = [
     &leak::SPEC,
     &trapped_air::SPEC,
+    &sensor_lag::SPEC,
     &wall_arching::SPEC,
     &mullins_softening::SPEC,
     &skin_viscoelasticity::SPEC,
@@ -332,6 +334,7 @@ mod tests {
             ("skin_viscoelasticity", "fraction"),
             ("mullins_softening", "fraction"),
             ("wall_arching", "mu_k"),
+            ("sensor_lag", "lag_s"),
         ];
         for (name, primary) in want {
             assert_eq!(EffectSpec::by_name(name).unwrap().params[0].name, primary);

@@ -194,6 +194,7 @@ pub fn typical(name: &str) -> Result<EffectInstance> {
         "skin_viscoelasticity" => &[("fraction", 0.8), ("tau_s", 1.5)],
         "mullins_softening" => &[("fraction", 0.4)],
         "wall_arching" => &[("mu_k", 0.25)],
+        "sensor_lag" => &[("lag_s", 0.03)],
         // Unknown names fail in `new`; other effects start at defaults.
         _ => &[],
     };
