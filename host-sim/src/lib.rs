@@ -25,6 +25,7 @@
 //! - [`files`]: atomic result files.
 
 pub mod bench;
+pub mod coupling;
 pub mod dem;
 pub mod demo;
 pub mod effects;

@@ -1,0 +1,254 @@
+//! # Particle–skin coupling
+//!
+//! DEM spheres against the FEM skin's outer surface, forces exchanged both
+//! ways every DEM step. Each particle has at most one skin contact, with
+//! the closest mid-surface triangle, offset outwards by half the
+//! triangle's current thickness; the contact law is the DEM's own
+//! [`ContactModel`] (Hertz normal penalty from the sand and skin moduli,
+//! restitution damping, Mindlin tangential spring with history and a
+//! Coulomb cap μ). The particle receives the force, the skin nodes the
+//! opposite, spread by the contact point's barycentric (shape-function)
+//! weights, so the exchanged forces sum to zero.
+//!
+//! [`Coupling`] is a DEM [`Sink`]: inside each DEM step it first advances
+//! the skin to the particles' time with the contact forces of the previous
+//! evaluation (central difference), then evaluates the contacts at that
+//! common time. A [`FrontFace`] (the head's cap) can ride along; its sand
+//! pressure is read after each step.
+
+pub mod face;
+pub mod geometry;
+
+use std::collections::HashMap;
+
+use nalgebra::Vector3;
+
+use crate::dem::contact::{ContactGeometry, ContactModel, History};
+use crate::dem::{Particles, Sink};
+use crate::fem::{FemError, Skin};
+use crate::skin::StrainEnergy;
+pub use face::FrontFace;
+use geometry::closest_point_on_triangle;
+
+/// Totals of one contact evaluation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Exchange {
+    /// Sum of skin-contact forces on the particles (N).
+    pub on_particles_n: Vector3<f64>,
+    /// Sum of the opposite forces put on the skin nodes (N).
+    pub on_skin_n: Vector3<f64>,
+    /// Particles touching the skin.
+    pub contacts: usize,
+}
+
+/// The skin, its contact law with the particles, and an optional front
+/// face, as one DEM [`Sink`].
+#[derive(Debug)]
+pub struct Coupling<S: StrainEnergy> {
+    /// The FEM skin, advanced inside the DEM steps.
+    pub skin: Skin<S>,
+    /// Particle–skin contact law.
+    pub model: ContactModel,
+    /// The head's front face, if resolved.
+    pub face: Option<FrontFace>,
+    /// DEM time step (s): the contacts' tangential histories advance by it.
+    pub dt_s: f64,
+    history: Vec<History>,
+    last: Exchange,
+    error: Option<FemError>,
+    synced: bool,
+}
+
+impl<S: StrainEnergy> Coupling<S> {
+    /// Couples `skin` to particles through `model`, stepping with the DEM's
+    /// `dt_s` (s). The skin's time is taken as the DEM's at the first call.
+    pub fn new(skin: Skin<S>, model: ContactModel, dt_s: f64) -> Result<Coupling<S>, FemError> {
+        if !(dt_s > 0.0 && dt_s.is_finite()) {
+            return Err(FemError::Param {
+                name: "dt_s",
+                value: dt_s,
+            });
+        }
+        Ok(Coupling {
+            skin,
+            model,
+            face: None,
+            dt_s,
+            history: Vec::new(),
+            last: Exchange::default(),
+            error: None,
+            synced: false,
+        })
+    }
+
+    /// Totals of the last contact evaluation.
+    pub fn last_exchange(&self) -> Exchange {
+        self.last
+    }
+
+    /// The skin error that stopped the coupling, if any (a [`Sink`] cannot
+    /// return one; check after each DEM step).
+    pub fn error(&self) -> Option<&FemError> {
+        self.error.as_ref()
+    }
+
+    /// Evaluates the particle–skin contacts at the current positions of
+    /// both: adds forces to `particles`, sets `skin.external_force_n`.
+    pub fn exchange(&mut self, particles: &mut Particles) -> Result<Exchange, FemError> {
+        let skin = &mut self.skin;
+        skin.external_force_n
+            .iter_mut()
+            .for_each(|f| *f = Vector3::zeros());
+        let n = particles.len();
+        if self.history.len() != n {
+            self.history = vec![History::default(); n];
+        }
+        let half_thickness: Vec<f64> = (0..skin.elements.len())
+            .map(|k| Ok(0.5 * skin.spec.thickness_m * skin.strain(k)?.thickness_stretch()))
+            .collect::<Result<_, FemError>>()?;
+        let reach = particles.max_radius_m() + half_thickness.iter().copied().fold(0.0, f64::max);
+        let grid = TriangleGrid::build(skin, reach);
+        let mut out = Exchange::default();
+        for i in 0..n {
+            let p = particles.position_m[i];
+            let r = particles.radius_m[i];
+            // Closest triangle among the candidates in the particle's cell.
+            let mut best: Option<(f64, usize, Vector3<f64>, [f64; 3])> = None;
+            for &k in grid.candidates(&p) {
+                let tri = &skin.elements[k];
+                let x = tri.nodes.map(|a| skin.position_m[a]);
+                let (q, w) = closest_point_on_triangle(&p, x);
+                let dist = (p - q).norm();
+                if dist < r + half_thickness[k] && best.is_none_or(|b| dist < b.0) {
+                    best = Some((dist, k, q, w));
+                }
+            }
+            let Some((dist, k, q, w)) = best else {
+                self.history[i] = History::default();
+                continue;
+            };
+            let tri = &skin.elements[k];
+            let x = tri.nodes.map(|a| skin.position_m[a]);
+            let face_normal = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
+            let d = p - q;
+            // Outer side: along the centre offset; a centre that crossed
+            // the mid-surface is pushed back out along the face normal.
+            let (normal, gap) = if d.dot(&face_normal) > 0.0 && dist > 0.0 {
+                (d / dist, dist)
+            } else {
+                (face_normal, -dist)
+            };
+            let overlap = r + half_thickness[k] - gap;
+            let v_skin: Vector3<f64> = (0..3).map(|m| skin.velocity_m_s[tri.nodes[m]] * w[m]).sum();
+            let m_skin: f64 = (0..3).map(|m| skin.mass_kg[tri.nodes[m]] * w[m]).sum();
+            let m_i = particles.mass_kg[i];
+            let vr = particles.velocity_m_s[i] - v_skin;
+            let vn = vr.dot(&normal);
+            let spin = particles.angular_velocity_rad_s[i];
+            let g = ContactGeometry {
+                normal,
+                overlap_m: overlap,
+                radius_eff_m: r,
+                mass_eff_kg: m_i * m_skin / (m_i + m_skin),
+                normal_velocity_m_s: vn,
+                tangential_velocity_m_s: vr - normal * vn - (spin * r).cross(&normal),
+                relative_spin_rad_s: spin,
+            };
+            let cf = self.model.evaluate(&g, self.dt_s, &mut self.history[i]);
+            particles.force_n[i] += cf.force_n;
+            particles.torque_n_m[i] += cf.torque_per_radius_n * r + cf.rolling_torque_n_m;
+            for (a, wa) in tri.nodes.iter().zip(w) {
+                skin.external_force_n[*a] -= cf.force_n * wa;
+            }
+            out.on_particles_n += cf.force_n;
+            out.contacts += 1;
+        }
+        out.on_skin_n = skin.external_force_n.iter().sum();
+        self.last = out;
+        Ok(out)
+    }
+
+    fn advance_and_exchange(
+        &mut self,
+        time_s: f64,
+        particles: &mut Particles,
+    ) -> Result<(), FemError> {
+        if !self.synced {
+            self.skin.time_s = time_s;
+            self.synced = true;
+        }
+        // Advance the skin to the particles' time with the forces of the
+        // last evaluation (a repeated call at the same time only
+        // re-evaluates the contacts).
+        let lag = time_s - self.skin.time_s;
+        if lag > 1e-9 * self.dt_s {
+            self.skin.step(lag)?;
+            self.skin.time_s = time_s;
+        }
+        self.exchange(particles)?;
+        if let Some(face) = &mut self.face {
+            face.apply(particles);
+        }
+        Ok(())
+    }
+}
+
+impl<S: StrainEnergy> Sink for Coupling<S> {
+    fn add_external_forces(&mut self, time_s: f64, particles: &mut Particles) {
+        if self.error.is_some() {
+            return;
+        }
+        if let Err(e) = self.advance_and_exchange(time_s, particles) {
+            self.error = Some(e);
+        }
+    }
+}
+
+/// Triangles binned on a uniform grid by their bounding boxes grown by the
+/// contact reach, so a particle only tests the triangles of its own cell.
+struct TriangleGrid {
+    cell_m: f64,
+    cells: HashMap<[i64; 3], Vec<usize>>,
+}
+
+impl TriangleGrid {
+    fn build<S: StrainEnergy>(skin: &Skin<S>, reach_m: f64) -> TriangleGrid {
+        let boxes: Vec<(Vector3<f64>, Vector3<f64>)> = skin
+            .elements
+            .iter()
+            .map(|t| {
+                let x = t.nodes.map(|a| skin.position_m[a]);
+                let lo = x[0].inf(&x[1]).inf(&x[2]).add_scalar(-reach_m);
+                let hi = x[0].sup(&x[1]).sup(&x[2]).add_scalar(reach_m);
+                (lo, hi)
+            })
+            .collect();
+        let cell_m = boxes
+            .iter()
+            .map(|(lo, hi)| (hi - lo).max())
+            .fold(0.0, f64::max)
+            .max(1e-9);
+        let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+        for (k, (lo, hi)) in boxes.iter().enumerate() {
+            let (a, b) = (Self::key(cell_m, lo), Self::key(cell_m, hi));
+            for i in a[0]..=b[0] {
+                for j in a[1]..=b[1] {
+                    for l in a[2]..=b[2] {
+                        cells.entry([i, j, l]).or_default().push(k);
+                    }
+                }
+            }
+        }
+        TriangleGrid { cell_m, cells }
+    }
+
+    fn key(cell_m: f64, x: &Vector3<f64>) -> [i64; 3] {
+        [0, 1, 2].map(|k| (x[k] / cell_m).floor() as i64)
+    }
+
+    fn candidates(&self, p: &Vector3<f64>) -> &[usize] {
+        self.cells
+            .get(&Self::key(self.cell_m, p))
+            .map_or(&[], |v| v.as_slice())
+    }
+}
