@@ -43,7 +43,7 @@ fn top_surface_m(skin: &Skin<Yeoh>) -> (Vector3<f64>, f64) {
 }
 
 #[test]
-fn a_pressed_sphere_gets_the_hertz_force_and_the_skin_the_opposite() {
+fn a_pressed_sphere_gets_hertz_and_coulomb_forces_and_the_skin_the_opposite() {
     let skin = pressurised_skin(300.0);
     // Over the centroid of the topmost triangle of the middle row, along
     // its normal: that triangle is the closest, its face the contact.
@@ -87,6 +87,19 @@ fn a_pressed_sphere_gets_the_hertz_force_and_the_skin_the_opposite() {
     let f = p.force_n[0];
     println!("pressed sphere: F = {:.4e} N, Hertz {want:.4e} N", f.norm());
     assert!((f - normal * want).norm() < 1e-9 * want, "{f:?} vs {want}");
+
+    // Sliding fast along the surface: Coulomb, |F_t| = μ F_n against the slip.
+    let slip = normal.cross(&Vector3::z()).normalize();
+    p.velocity_m_s[0] = slip * 5.0;
+    p.force_n[0] = Vector3::zeros();
+    let ex = c.exchange(&mut p).unwrap();
+    assert!((ex.on_particles_n + ex.on_skin_n).norm() < 1e-14 * want);
+    let f = p.force_n[0];
+    let (f_n, f_t) = (f.dot(&normal), f - normal * f.dot(&normal));
+    let mu = ContactSpec::default().friction;
+    println!("sliding: F_t/F_n = {:.6} (μ = {mu})", f_t.norm() / f_n);
+    assert!((f_t.norm() - mu * f_n).abs() < 1e-9 * f_n);
+    assert!(f_t.dot(&slip) < -0.999_999 * f_t.norm());
 }
 
 #[test]

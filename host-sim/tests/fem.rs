@@ -70,6 +70,31 @@ fn plane_strain_inflation_matches_the_closed_form_tube_within_2_percent() {
     assert!((last_d - 25e-3).abs() < 0.5e-3, "final D {last_d}");
 }
 
+/// Relative pressure error against the closed form at D ≈ 22.5 mm with
+/// `around` nodes round the circumference.
+fn pressure_error(around: usize) -> f64 {
+    let law = default_skin();
+    let spec = SkinSpec::paper(around, 4);
+    let mut skin = Skin::new(law, &spec, Ends::PlaneStrain).unwrap();
+    skin.pressure_pa = 550.0;
+    skin.relax(1e-9 * 550.0 * spec.length_m * spec.mid_radius_m, 400_000)
+        .unwrap();
+    let mid = 2.0 * skin.ring_radius_m(skin.mesh.middle_ring());
+    let want = thin_wall_reference_pa(law, &spec, mid);
+    (skin.pressure_pa - want) / want
+}
+
+#[test]
+fn the_discretisation_error_falls_with_the_mesh() {
+    let errors = [16, 32, 64].map(pressure_error);
+    println!("pressure error at 16/32/64 nodes round: {errors:?}");
+    // The polygon's error is second order in the element angle.
+    for w in errors.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!((3.0..5.0).contains(&ratio), "{errors:?}");
+    }
+}
+
 fn perturbed_skin() -> Skin<Yeoh> {
     let spec = SkinSpec::paper(12, 3);
     let mut skin = Skin::new(default_skin(), &spec, Ends::Clamped).unwrap();
