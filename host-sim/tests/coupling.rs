@@ -75,6 +75,8 @@ fn a_pressed_sphere_gets_hertz_and_coulomb_forces_and_the_skin_the_opposite() {
         2920.0,
     )
     .unwrap();
+    // A DEM step beyond the skin's explicit stability limit is refused.
+    assert!(Coupling::new(skin.clone(), model, 1e-2).is_err());
     let mut c = Coupling::new(skin, model, 1e-5).unwrap();
     let ex = c.exchange(&mut p).unwrap();
     assert_eq!(ex.contacts, 1);

@@ -61,9 +61,11 @@ pub struct Coupling<S: StrainEnergy> {
 
 impl<S: StrainEnergy> Coupling<S> {
     /// Couples `skin` to particles through `model`, stepping with the DEM's
-    /// `dt_s` (s). The skin's time is taken as the DEM's at the first call.
+    /// `dt_s` (s), which must be within the skin's stable step at its
+    /// current strain. The skin's time is taken as the DEM's at the first
+    /// call.
     pub fn new(skin: Skin<S>, model: ContactModel, dt_s: f64) -> Result<Coupling<S>, FemError> {
-        if !(dt_s > 0.0 && dt_s.is_finite()) {
+        if !(dt_s > 0.0 && dt_s.is_finite() && dt_s <= skin.stable_time_step_s()?) {
             return Err(FemError::Param {
                 name: "dt_s",
                 value: dt_s,
