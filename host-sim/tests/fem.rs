@@ -1,7 +1,7 @@
 //! The FEM skin against the closed-form tube inflation, and the
 //! consistency of its internal forces with its strain energy.
 
-use host_sim::fem::{Ends, Skin, SkinSpec};
+use host_sim::fem::{Ends, Skin, SkinSpec, VolumeControl};
 use host_sim::skin::membrane::{self, Tube, TubeGeometry};
 use host_sim::skin::{default_skin, Yeoh};
 use nalgebra::{Rotation3, Vector3};
@@ -93,6 +93,42 @@ fn the_discretisation_error_falls_with_the_mesh() {
         let ratio = w[0] / w[1];
         assert!((3.0..5.0).contains(&ratio), "{errors:?}");
     }
+}
+
+#[test]
+fn injected_volume_gives_the_closed_form_pressure() {
+    let law = default_skin();
+    let spec = SkinSpec::paper(32, 4);
+    let mut skin = Skin::new(law, &spec, Ends::PlaneStrain).unwrap();
+    // The polygon's volume when every node is at mid-surface radius r:
+    // N/2·r²·sin(2π/N)·L; r chosen for an outer diameter near 25 mm.
+    let n = spec.around as f64;
+    let r = 11.75e-3;
+    let target = 0.5 * n * r * r * (std::f64::consts::TAU / n).sin() * spec.length_m;
+    let bulk = 1e6;
+    skin.volume_control = Some(VolumeControl {
+        target_volume_m3: target,
+        bulk_modulus_pa: bulk,
+    });
+    let relaxed = skin
+        .relax(1e-12 * bulk * spec.length_m * spec.mid_radius_m, 400_000)
+        .unwrap();
+    let v = skin.enclosed_volume_m3();
+    let mid = 2.0 * skin.ring_radius_m(skin.mesh.middle_ring());
+    let want = thin_wall_reference_pa(law, &spec, mid);
+    let err = (skin.pressure_pa - want) / want;
+    println!(
+        "volume control: V/V_target − 1 = {:.2e}, D = {:.3} mm, p = {:.2} Pa vs closed form {want:.2} Pa ({:+.3} %), {} steps",
+        v / target - 1.0,
+        skin.outer_diameter_at_mid_length_m() * 1e3,
+        skin.pressure_pa,
+        100.0 * err,
+        relaxed.steps
+    );
+    // The penalty leaves V short of the target by exactly p/K.
+    assert!(((target - v) / target - skin.pressure_pa / bulk).abs() < 1e-12);
+    assert!((v - target).abs() < 1e-3 * target);
+    assert!(err.abs() < 0.02, "{err}");
 }
 
 fn perturbed_skin() -> Skin<Yeoh> {

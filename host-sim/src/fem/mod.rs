@@ -116,6 +116,19 @@ pub enum Ends {
     Clamped,
 }
 
+/// Loading by injected volume: the fluid inside is a penalty (a stiff
+/// compressible liquid), p = K·(V_target − V)/V_target, so the enclosed
+/// volume V (end planes included, see [`Skin::enclosed_volume_m3`]) reaches
+/// the target to within p/K.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeControl {
+    /// Volume of fluid the skin must enclose (m³).
+    pub target_volume_m3: f64,
+    /// Penalty bulk modulus K (Pa): ≫ the pressures expected; it also
+    /// shortens the stable time step (see [`Skin::stable_time_step_s`]).
+    pub bulk_modulus_pa: f64,
+}
+
 /// Result of a dynamic relaxation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Relaxed {
@@ -144,8 +157,12 @@ pub struct Skin<S: StrainEnergy> {
     pub mass_kg: Vec<f64>,
     /// Per node and component: held fixed.
     pub fixed: Vec<[bool; 3]>,
-    /// Internal minus external fluid pressure on the inner surface (Pa).
+    /// Internal minus external fluid pressure on the inner surface (Pa):
+    /// set by the caller, or by [`Skin::volume_control`] when that is on.
     pub pressure_pa: f64,
+    /// Injected-volume loading: when set, the pressure follows the
+    /// enclosed volume instead of being prescribed.
+    pub volume_control: Option<VolumeControl>,
     /// Mass-proportional damping coefficient c (1/s): the damping force
     /// on a node is −c·m·v. Default 0.
     pub damping_per_s: f64,
@@ -197,6 +214,7 @@ impl<S: StrainEnergy> Skin<S> {
             mass_kg,
             fixed,
             pressure_pa: 0.0,
+            volume_control: None,
             damping_per_s: 0.0,
             time_s: 0.0,
         })
@@ -247,9 +265,17 @@ impl<S: StrainEnergy> Skin<S> {
     /// Nodal forces (N) of the internal pressure on the deformed surface,
     /// added to `out`: p times each triangle's area vector, a third per node.
     pub fn add_pressure_forces_n(&self, out: &mut [Vector3<f64>]) {
+        self.add_area_vectors_m2(self.pressure_pa, out);
+    }
+
+    /// Adds `scale` times each node's share of the outward area vectors
+    /// (m², a third of each touching triangle's) to `out`; with scale 1
+    /// these are ∂V/∂x of the enclosed volume up to terms that cancel
+    /// over a closed surface (what the stability bound needs).
+    fn add_area_vectors_m2(&self, scale: f64, out: &mut [Vector3<f64>]) {
         for tri in &self.elements {
             let [a, b, c] = tri.nodes.map(|a| self.position_m[a]);
-            let share = (b - a).cross(&(c - a)) * (self.pressure_pa / 6.0);
+            let share = (b - a).cross(&(c - a)) * (scale / 6.0);
             for n in tri.nodes {
                 out[n] += share;
             }
@@ -276,6 +302,36 @@ impl<S: StrainEnergy> Skin<S> {
     /// A stable explicit time step (s) at the current strain: half the
     /// smallest element transit time of the bounded wave speed.
     pub fn stable_time_step_s(&self) -> Result<f64, FemError> {
+        let dt = self.element_time_step_s()?;
+        let Some(vc) = self.volume_control else {
+            return Ok(dt);
+        };
+        // The fluid penalty is a rank-one stiffness K/V·g gᵀ (g ≈ ∂V/∂x,
+        // the nodal area vectors): its frequency ω² = K/V·Σ|g_a|²/m_a
+        // adds to the elements'.
+        let mut g = vec![Vector3::zeros(); self.node_count()];
+        self.add_area_vectors_m2(1.0, &mut g);
+        let sum: f64 = g
+            .iter()
+            .zip(&self.mass_kg)
+            .zip(&self.fixed)
+            .filter(|(_, fix)| !fix.iter().all(|f| *f))
+            .map(|((g, m), _)| g.norm_squared() / m)
+            .sum();
+        let w2 = vc.bulk_modulus_pa / vc.target_volume_m3 * sum;
+        Ok(1.0 / (dt.powi(-2) + w2).sqrt())
+    }
+
+    /// Sets the pressure from the enclosed volume when volume-controlled.
+    pub fn update_pressure(&mut self) {
+        if let Some(vc) = self.volume_control {
+            let v = self.enclosed_volume_m3();
+            self.pressure_pa = vc.bulk_modulus_pa * (vc.target_volume_m3 - v) / vc.target_volume_m3;
+        }
+    }
+
+    /// The elements' stable step (s), without the fluid.
+    fn element_time_step_s(&self) -> Result<f64, FemError> {
         let mut dt = f64::INFINITY;
         for (k, tri) in self.elements.iter().enumerate() {
             let e = self.strain(k)?;
@@ -293,6 +349,7 @@ impl<S: StrainEnergy> Skin<S> {
             return Err(FemError::param("dt_s", dt_s));
         }
         let mut r = vec![Vector3::zeros(); self.node_count()];
+        self.update_pressure();
         self.residual_n(&mut r)?;
         let c = 0.5 * self.damping_per_s * dt_s;
         for (((x, v), m), f) in self
@@ -327,6 +384,7 @@ impl<S: StrainEnergy> Skin<S> {
             if steps % 64 == 63 {
                 dt = self.stable_time_step_s()?;
             }
+            self.update_pressure();
             self.residual_n(&mut r)?;
             residual = r.iter().map(|f| f.norm()).fold(0.0, f64::max);
             if residual <= tolerance_n {
