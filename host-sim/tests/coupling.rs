@@ -3,7 +3,7 @@
 
 use host_sim::coupling::{Coupling, FrontFace};
 use host_sim::dem::contact::{ContactModel, ContactSpec, Material};
-use host_sim::dem::{step, Params, Particles, State};
+use host_sim::dem::{step, Params, Particles, State, Wall};
 use host_sim::fem::{Ends, Skin, SkinSpec};
 use host_sim::skin::{default_skin, StrainEnergy, Yeoh};
 use nalgebra::Vector3;
@@ -272,4 +272,72 @@ fn an_elastic_bounce_on_the_undamped_skin_conserves_energy() {
     // conservative. A lag between the two solvers would show as drift
     // growing with dt.
     assert!(((e1 - e0) / impact).abs() < 1e-2);
+}
+
+#[test]
+fn a_grain_resting_on_the_skin_loads_it_with_its_weight() {
+    let mut skin = pressurised_skin(400.0);
+    skin.damping_per_s = 200.0;
+    let (top, half_t) = top_surface_m(&skin);
+    let model =
+        ContactModel::hertz_mindlin(&SAND, &skin_material(), &ContactSpec::default()).unwrap();
+    let dt = 1e-5;
+    let mut params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    params.gravity_m_s2 = Vector3::new(0.0, -9.81, 0.0);
+    let r = 0.5e-3;
+    // A frictionless box round the top of the middle ring keeps the grain
+    // from rolling off the convex skin; its walls push sideways only.
+    let smooth = ContactSpec {
+        friction: 0.0,
+        ..ContactSpec::default()
+    };
+    let gap = r + 0.02e-3;
+    for side in [-1.0, 1.0] {
+        for (point, normal) in [
+            (
+                Vector3::new(side * gap, 0.0, 0.0),
+                Vector3::new(-side, 0.0, 0.0),
+            ),
+            (
+                Vector3::new(0.0, 0.0, top.z + side * gap),
+                Vector3::new(0.0, 0.0, -side),
+            ),
+        ] {
+            params
+                .walls
+                .push(Wall::plane(point, normal, &SAND, &SAND, &smooth).unwrap());
+        }
+    }
+    let mut p = Particles::new();
+    p.push(
+        top + Vector3::new(0.0, half_t + r + 0.05e-3, 0.0),
+        Vector3::zeros(),
+        r,
+        2920.0,
+    )
+    .unwrap();
+    let weight = p.mass_kg.iter().sum::<f64>() * 9.81;
+    let mut state = State::new(p);
+    let mut c = Coupling::new(skin, model, dt).unwrap();
+    for _ in 0..10_000 {
+        step(&params, &mut state, &mut c).unwrap();
+    }
+    let ex = c.last_exchange();
+    let s = c.sample().unwrap();
+    println!(
+        "resting grain: vertical load {:.6e} N vs weight {weight:.6e} N; p_e = {:.4} Pa, D = {:.3} mm, max von Mises {:.1} Pa",
+        ex.on_particles_n.y,
+        s.sand_pressure_pa,
+        s.outer_diameter_m * 1e3,
+        s.max_von_mises_pa
+    );
+    assert_eq!(ex.contacts, 1);
+    // At rest the skin carries the grain's weight (the walls push sideways).
+    assert!((ex.on_particles_n.y - weight).abs() < 1e-3 * weight);
+    // p_e is that load over the outer area (≈ π·D·L for a near cylinder).
+    let area = std::f64::consts::PI * s.outer_diameter_m * c.skin.spec.length_m;
+    assert!((s.sand_pressure_pa * area / ex.normal_force_n - 1.0).abs() < 0.1);
+    assert!((ex.normal_force_n - weight).abs() < 0.05 * weight);
+    assert_eq!(s.internal_pressure_pa, 400.0);
+    assert!(s.outer_diameter_m > 18.7e-3 && s.max_von_mises_pa > 0.0);
 }

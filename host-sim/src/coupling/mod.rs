@@ -39,6 +39,29 @@ pub struct Exchange {
     pub on_skin_n: Vector3<f64>,
     /// Particles touching the skin.
     pub contacts: usize,
+    /// Sum of the contacts' normal forces (N): how hard the sand presses
+    /// on the skin.
+    pub normal_force_n: f64,
+}
+
+/// What the coupled run reports at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Time (s).
+    pub time_s: f64,
+    /// Outer diameter at mid-length D (m).
+    pub outer_diameter_m: f64,
+    /// Internal (fluid) pressure p_i (Pa).
+    pub internal_pressure_pa: f64,
+    /// Sand pressure on the skin p_e (Pa): contact normal force over the
+    /// skin's outer lateral area.
+    pub sand_pressure_pa: f64,
+    /// Sand pressure on the front face p_h (Pa), if one is resolved.
+    pub face_pressure_pa: Option<f64>,
+    /// Largest element von Mises stress in the skin (Pa).
+    pub max_von_mises_pa: f64,
+    /// Particles touching the skin.
+    pub contacts: usize,
 }
 
 /// The skin, its contact law with the particles, and an optional front
@@ -86,6 +109,21 @@ impl<S: StrainEnergy> Coupling<S> {
     /// Totals of the last contact evaluation.
     pub fn last_exchange(&self) -> Exchange {
         self.last
+    }
+
+    /// The state at the last evaluation: D, p_i, p_e, p_h and the largest
+    /// von Mises stress.
+    pub fn sample(&self) -> Result<Sample, FemError> {
+        let max_von_mises_pa = self.skin.von_mises_pa()?.into_iter().fold(0.0, f64::max);
+        Ok(Sample {
+            time_s: self.skin.time_s,
+            outer_diameter_m: self.skin.outer_diameter_at_mid_length_m(),
+            internal_pressure_pa: self.skin.pressure_pa,
+            sand_pressure_pa: self.last.normal_force_n / self.skin.outer_area_m2()?,
+            face_pressure_pa: self.face.as_ref().map(FrontFace::pressure_pa),
+            max_von_mises_pa,
+            contacts: self.last.contacts,
+        })
     }
 
     /// The skin error that stopped the coupling, if any (a [`Sink`] cannot
@@ -163,6 +201,7 @@ impl<S: StrainEnergy> Coupling<S> {
                 skin.external_force_n[*a] -= cf.force_n * wa;
             }
             out.on_particles_n += cf.force_n;
+            out.normal_force_n += cf.force_n.dot(&normal);
             out.contacts += 1;
         }
         out.on_skin_n = skin.external_force_n.iter().sum();

@@ -460,6 +460,22 @@ impl<S: StrainEnergy> Skin<S> {
             .collect()
     }
 
+    /// Current outer lateral area of the skin (m²): each triangle's
+    /// mid-surface area scaled by (ρ + h/2)/ρ, ρ its centroid's distance
+    /// from the axis and h its current thickness.
+    pub fn outer_area_m2(&self) -> Result<f64, FemError> {
+        (0..self.elements.len())
+            .map(|k| {
+                let tri = &self.elements[k];
+                let [a, b, c] = tri.nodes.map(|a| self.position_m[a]);
+                let area = 0.5 * (b - a).cross(&(c - a)).norm();
+                let rho = ((a + b + c) / 3.0).xy().norm();
+                let h = self.spec.thickness_m * self.strain(k)?.thickness_stretch();
+                Ok(area * (1.0 + 0.5 * h / rho))
+            })
+            .sum()
+    }
+
     /// Volume enclosed by the skin and the planes of its end rings (m³):
     /// the flux of (x, y, 0)/2 through the lateral surface (none crosses
     /// flat end caps normal to z).
