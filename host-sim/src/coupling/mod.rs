@@ -22,8 +22,9 @@ pub mod geometry;
 use std::collections::HashMap;
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
-use crate::dem::contact::{ContactGeometry, ContactModel, History};
+use crate::dem::contact::{ContactForce, ContactGeometry, ContactModel, History};
 use crate::dem::{Particles, Sink};
 use crate::fem::{FemError, Skin};
 use crate::skin::StrainEnergy;
@@ -148,60 +149,51 @@ impl<S: StrainEnergy> Coupling<S> {
             .collect::<Result<_, FemError>>()?;
         let reach = particles.max_radius_m() + half_thickness.iter().copied().fold(0.0, f64::max);
         let grid = TriangleGrid::build(skin, reach);
-        let mut out = Exchange::default();
-        for i in 0..n {
-            let p = particles.position_m[i];
-            let r = particles.radius_m[i];
-            // Closest triangle among the candidates in the particle's cell.
-            let mut best: Option<(f64, usize, Vector3<f64>, [f64; 3])> = None;
-            for &k in grid.candidates(&p) {
-                let tri = &skin.elements[k];
-                let x = tri.nodes.map(|a| skin.position_m[a]);
-                let (q, w) = closest_point_on_triangle(&p, x);
-                let dist = (p - q).norm();
-                if dist < r + half_thickness[k] && best.is_none_or(|b| dist < b.0) {
-                    best = Some((dist, k, q, w));
+        let (lo, hi) = grid.bounds;
+        let (model, dt) = (&self.model, self.dt_s);
+        let parts: &Particles = particles;
+        let skin_ro: &Skin<S> = skin;
+        // Contacts in parallel (each particle owns its history), applied
+        // below in particle order so the sums do not depend on threads.
+        let hits: Vec<Option<Hit>> = self
+            .history
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, history)| {
+                let p = parts.position_m[i];
+                let outside = (0..3).any(|k| p[k] < lo[k] || p[k] > hi[k]);
+                let hit = if outside {
+                    None
+                } else {
+                    contact(
+                        skin_ro,
+                        &grid,
+                        &half_thickness,
+                        parts,
+                        i,
+                        model,
+                        dt,
+                        history,
+                    )
+                };
+                if hit.is_none() {
+                    *history = History::default();
                 }
-            }
-            let Some((dist, k, q, w)) = best else {
-                self.history[i] = History::default();
-                continue;
-            };
-            let tri = &skin.elements[k];
-            let x = tri.nodes.map(|a| skin.position_m[a]);
-            let face_normal = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
-            let d = p - q;
-            // Outer side: along the centre offset; a centre that crossed
-            // the mid-surface is pushed back out along the face normal.
-            let (normal, gap) = if d.dot(&face_normal) > 0.0 && dist > 0.0 {
-                (d / dist, dist)
-            } else {
-                (face_normal, -dist)
-            };
-            let overlap = r + half_thickness[k] - gap;
-            let v_skin: Vector3<f64> = (0..3).map(|m| skin.velocity_m_s[tri.nodes[m]] * w[m]).sum();
-            let m_skin: f64 = (0..3).map(|m| skin.mass_kg[tri.nodes[m]] * w[m]).sum();
-            let m_i = particles.mass_kg[i];
-            let vr = particles.velocity_m_s[i] - v_skin;
-            let vn = vr.dot(&normal);
-            let spin = particles.angular_velocity_rad_s[i];
-            let g = ContactGeometry {
-                normal,
-                overlap_m: overlap,
-                radius_eff_m: r,
-                mass_eff_kg: m_i * m_skin / (m_i + m_skin),
-                normal_velocity_m_s: vn,
-                tangential_velocity_m_s: vr - normal * vn - (spin * r).cross(&normal),
-                relative_spin_rad_s: spin,
-            };
-            let cf = self.model.evaluate(&g, self.dt_s, &mut self.history[i]);
+                hit
+            })
+            .collect();
+        let mut out = Exchange::default();
+        for (i, hit) in hits.into_iter().enumerate() {
+            let Some(hit) = hit else { continue };
+            let cf = hit.force;
             particles.force_n[i] += cf.force_n;
-            particles.torque_n_m[i] += cf.torque_per_radius_n * r + cf.rolling_torque_n_m;
-            for (a, wa) in tri.nodes.iter().zip(w) {
+            particles.torque_n_m[i] +=
+                cf.torque_per_radius_n * particles.radius_m[i] + cf.rolling_torque_n_m;
+            for (a, wa) in skin.elements[hit.element].nodes.iter().zip(hit.weights) {
                 skin.external_force_n[*a] -= cf.force_n * wa;
             }
             out.on_particles_n += cf.force_n;
-            out.normal_force_n += cf.force_n.dot(&normal);
+            out.normal_force_n += cf.force_n.dot(&hit.normal);
             out.contacts += 1;
         }
         out.on_skin_n = skin.external_force_n.iter().sum();
@@ -245,9 +237,89 @@ impl<S: StrainEnergy> Sink for Coupling<S> {
     }
 }
 
+/// One particle's skin contact.
+struct Hit {
+    element: usize,
+    weights: [f64; 3],
+    normal: Vector3<f64>,
+    force: ContactForce,
+}
+
+/// Particle `i`'s contact with the closest triangle of `skin` within
+/// reach, if any; advances its tangential `history`.
+#[allow(clippy::too_many_arguments)]
+fn contact<S: StrainEnergy>(
+    skin: &Skin<S>,
+    grid: &TriangleGrid,
+    half_thickness: &[f64],
+    particles: &Particles,
+    i: usize,
+    model: &ContactModel,
+    dt_s: f64,
+    history: &mut History,
+) -> Option<Hit> {
+    let p = particles.position_m[i];
+    let r = particles.radius_m[i];
+    // Closest triangle among the candidates in the particle's cell.
+    let mut best: Option<(f64, usize, Vector3<f64>, [f64; 3])> = None;
+    for &k in grid.candidates(&p) {
+        let x = skin.elements[k].nodes.map(|a| skin.position_m[a]);
+        let (q, w) = closest_point_on_triangle(&p, x);
+        let dist = (p - q).norm();
+        if dist < r + half_thickness[k] && best.is_none_or(|b| dist < b.0) {
+            best = Some((dist, k, q, w));
+        }
+    }
+    let (dist, k, q, w) = best?;
+    let tri = &skin.elements[k];
+    let x = tri.nodes.map(|a| skin.position_m[a]);
+    let face_normal = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
+    let d = p - q;
+    // Outer side: along the centre offset; a centre that crossed the
+    // mid-surface is pushed back out along the face normal.
+    let (normal, gap) = if d.dot(&face_normal) > 0.0 && dist > 0.0 {
+        (d / dist, dist)
+    } else {
+        (face_normal, -dist)
+    };
+    let v_skin: Vector3<f64> = tri
+        .nodes
+        .iter()
+        .zip(w)
+        .map(|(a, wa)| skin.velocity_m_s[*a] * wa)
+        .sum();
+    let m_skin: f64 = tri
+        .nodes
+        .iter()
+        .zip(w)
+        .map(|(a, wa)| skin.mass_kg[*a] * wa)
+        .sum();
+    let m_i = particles.mass_kg[i];
+    let vr = particles.velocity_m_s[i] - v_skin;
+    let vn = vr.dot(&normal);
+    let spin = particles.angular_velocity_rad_s[i];
+    let g = ContactGeometry {
+        normal,
+        overlap_m: r + half_thickness[k] - gap,
+        radius_eff_m: r,
+        mass_eff_kg: m_i * m_skin / (m_i + m_skin),
+        normal_velocity_m_s: vn,
+        tangential_velocity_m_s: vr - normal * vn - (spin * r).cross(&normal),
+        relative_spin_rad_s: spin,
+    };
+    Some(Hit {
+        element: k,
+        weights: w,
+        normal,
+        force: model.evaluate(&g, dt_s, history),
+    })
+}
+
 /// Triangles binned on a uniform grid by their bounding boxes grown by the
 /// contact reach, so a particle only tests the triangles of its own cell.
 struct TriangleGrid {
+    /// Box holding every triangle's grown box (m).
+    bounds: (Vector3<f64>, Vector3<f64>),
     cell_m: f64,
     cells: HashMap<[i64; 3], Vec<usize>>,
 }
@@ -280,7 +352,18 @@ impl TriangleGrid {
                 }
             }
         }
-        TriangleGrid { cell_m, cells }
+        let bounds = boxes.iter().fold(
+            (
+                Vector3::repeat(f64::INFINITY),
+                Vector3::repeat(f64::NEG_INFINITY),
+            ),
+            |(lo, hi), (a, b)| (lo.inf(a), hi.sup(b)),
+        );
+        TriangleGrid {
+            bounds,
+            cell_m,
+            cells,
+        }
     }
 
     fn key(cell_m: f64, x: &Vector3<f64>) -> [i64; 3] {
