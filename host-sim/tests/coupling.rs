@@ -75,8 +75,6 @@ fn a_pressed_sphere_gets_hertz_and_coulomb_forces_and_the_skin_the_opposite() {
         2920.0,
     )
     .unwrap();
-    // A DEM step beyond the skin's explicit stability limit is refused.
-    assert!(Coupling::new(skin.clone(), model, 1e-2).is_err());
     let mut c = Coupling::new(skin, model, 1e-5).unwrap();
     let ex = c.exchange(&mut p).unwrap();
     assert_eq!(ex.contacts, 1);
@@ -340,4 +338,47 @@ fn a_grain_resting_on_the_skin_loads_it_with_its_weight() {
     assert!((ex.normal_force_n - weight).abs() < 0.05 * weight);
     assert_eq!(s.internal_pressure_pa, 400.0);
     assert!(s.outer_diameter_m > 18.7e-3 && s.max_von_mises_pa > 0.0);
+}
+
+#[test]
+fn a_dem_step_longer_than_the_skins_stable_step_is_subcycled() {
+    let skin = pressurised_skin(400.0);
+    let d0 = skin.outer_diameter_at_mid_length_m();
+    // The static answer at the raised pressure, by relaxation.
+    let mut reference = skin.clone();
+    reference.pressure_pa = 600.0;
+    reference.relax(1e-7, 200_000).unwrap();
+    let d_static = reference.outer_diameter_at_mid_length_m();
+    let dt = 20.0 * skin.stable_time_step_s().unwrap();
+    let model =
+        ContactModel::hertz_mindlin(&SAND, &skin_material(), &ContactSpec::default()).unwrap();
+    let params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    let mut p = Particles::new();
+    // One grain far from the skin, falling freely.
+    p.push(Vector3::new(0.0, 0.0, 0.2), Vector3::zeros(), 1e-3, 2920.0)
+        .unwrap();
+    let mut state = State::new(p);
+    let mut c = Coupling::new(skin, model, dt).unwrap();
+    c.skin.pressure_pa = 600.0;
+    c.skin.damping_per_s = 100.0;
+    for _ in 0..400 {
+        step(&params, &mut state, &mut c).unwrap();
+        assert!(c.error().is_none(), "{:?}", c.error());
+    }
+    // Stable, in step with the DEM, and settled (mass-proportional
+    // damping) on the static state of the raised pressure.
+    let d1 = c.skin.outer_diameter_at_mid_length_m();
+    assert!((c.skin.time_s - state.time_s).abs() < 1e-12);
+    println!(
+        "subcycled: D {:.3} -> {:.3} mm over {:.3} s; static {:.3} mm",
+        d0 * 1e3,
+        d1 * 1e3,
+        state.time_s,
+        d_static * 1e3
+    );
+    assert!(d_static > d0 + 1e-3);
+    assert!(
+        (d1 - d_static).abs() < 5e-3 * d_static,
+        "{d1} vs {d_static}"
+    );
 }

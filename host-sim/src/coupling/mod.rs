@@ -81,15 +81,21 @@ pub struct Coupling<S: StrainEnergy> {
     last: Exchange,
     error: Option<FemError>,
     synced: bool,
+    /// The skin's stable step (s), refreshed every [`STABLE_STEP_REFRESH`]
+    /// advances (the stiffening law shortens it as the skin stretches).
+    skin_dt_s: f64,
+    advances: u64,
 }
+
+/// Skin advances between re-estimates of its stable step.
+const STABLE_STEP_REFRESH: u64 = 32;
 
 impl<S: StrainEnergy> Coupling<S> {
     /// Couples `skin` to particles through `model`, stepping with the DEM's
-    /// `dt_s` (s), which must be within the skin's stable step at its
-    /// current strain. The skin's time is taken as the DEM's at the first
-    /// call.
+    /// `dt_s` (s); a DEM step longer than the skin's stable step is
+    /// subcycled. The skin's time is taken as the DEM's at the first call.
     pub fn new(skin: Skin<S>, model: ContactModel, dt_s: f64) -> Result<Coupling<S>, FemError> {
-        if !(dt_s > 0.0 && dt_s.is_finite() && dt_s <= skin.stable_time_step_s()?) {
+        if !(dt_s > 0.0 && dt_s.is_finite()) {
             return Err(FemError::Param {
                 name: "dt_s",
                 value: dt_s,
@@ -104,6 +110,8 @@ impl<S: StrainEnergy> Coupling<S> {
             last: Exchange::default(),
             error: None,
             synced: false,
+            skin_dt_s: 0.0,
+            advances: 0,
         })
     }
 
@@ -215,7 +223,14 @@ impl<S: StrainEnergy> Coupling<S> {
         // re-evaluates the contacts).
         let lag = time_s - self.skin.time_s;
         if lag > 1e-9 * self.dt_s {
-            self.skin.step(lag)?;
+            if self.advances.is_multiple_of(STABLE_STEP_REFRESH) {
+                self.skin_dt_s = self.skin.stable_time_step_s()?;
+            }
+            self.advances += 1;
+            let substeps = (lag / self.skin_dt_s).ceil().max(1.0);
+            for _ in 0..substeps as u64 {
+                self.skin.step(lag / substeps)?;
+            }
             self.skin.time_s = time_s;
         }
         self.exchange(particles)?;
