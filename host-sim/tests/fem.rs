@@ -194,3 +194,31 @@ fn rigid_motions_leave_no_energy_or_force() {
     assert!(rest.strain_energy_j().unwrap().abs() < 1e-15);
     assert!(rest.von_mises_pa().unwrap().iter().all(|s| s.abs() < 1e-9));
 }
+
+#[test]
+fn the_vtk_file_holds_the_mesh_and_the_element_stresses() {
+    let mut skin = Skin::new(default_skin(), &SkinSpec::paper(12, 3), Ends::Clamped).unwrap();
+    skin.pressure_pa = 300.0;
+    skin.relax(1e-7, 200_000).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("skin.vtk");
+    host_sim::fem::vtk::write_vtk(&skin, &path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let (n, m) = (skin.node_count(), skin.elements.len());
+    assert_eq!(lines[4], format!("POINTS {n} double"));
+    assert_eq!(lines[5 + n], format!("POLYGONS {m} {}", 4 * m));
+    let at = lines
+        .iter()
+        .position(|l| l.starts_with("SCALARS von_mises_pa"))
+        .unwrap();
+    let vm: Vec<f64> = lines[at + 2..at + 2 + m]
+        .iter()
+        .map(|l| l.parse().unwrap())
+        .collect();
+    for (a, b) in vm.iter().zip(skin.von_mises_pa().unwrap()) {
+        assert!((a - b).abs() <= 1e-12 * b.abs());
+    }
+    assert!(vm.iter().all(|v| *v > 0.0));
+    assert!(text.contains(&format!("POINT_DATA {n}\nVECTORS displacement_m double")));
+}

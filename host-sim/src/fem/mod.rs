@@ -8,7 +8,9 @@
 //! surface (a follower load). Time integration is explicit central
 //! difference with lumped masses and mass-proportional damping
 //! ([`Skin::step`]); quasi-static states come from dynamic relaxation with
-//! kinetic damping ([`Skin::relax`]).
+//! kinetic damping ([`Skin::relax`]). Loads: a prescribed pressure, or an
+//! injected volume ([`VolumeControl`]); [`vtk`] writes the state for
+//! ParaView.
 //!
 //! SI units throughout (m, kg, s, N, Pa), like the DEM it is coupled to.
 //!
@@ -22,6 +24,7 @@
 
 pub mod element;
 pub mod mesh;
+pub mod vtk;
 
 use nalgebra::{Matrix2, Vector3};
 
