@@ -222,3 +222,41 @@ fn the_vtk_file_holds_the_mesh_and_the_element_stresses() {
     assert!(vm.iter().all(|v| *v > 0.0));
     assert!(text.contains(&format!("POINT_DATA {n}\nVECTORS displacement_m double")));
 }
+
+#[test]
+fn closed_end_inflation_matches_the_closed_form_tube_within_2_percent() {
+    let law = default_skin();
+    let spec = SkinSpec::paper(32, 6);
+    let mut skin = Skin::new(law, &spec, Ends::Closed).unwrap();
+    let mid_mm = 2.0 * spec.mid_radius_m * 1e3;
+    let thin = Tube::new(
+        TubeGeometry {
+            outer_diameter_mm: mid_mm + THIN_WALL_MM,
+            wall_thickness_mm: THIN_WALL_MM,
+            length_mm: spec.length_m * 1e3,
+        },
+        law,
+        membrane::Ends::Closed,
+    )
+    .unwrap();
+    let scale = spec.thickness_m * 1e3 / THIN_WALL_MM;
+    for p in [300.0, 500.0, 640.0, 690.0] {
+        skin.pressure_pa = p;
+        skin.relax(1e-9 * p * spec.length_m * spec.mid_radius_m, 400_000)
+            .unwrap();
+        let mid = 2.0 * skin.ring_radius_m(skin.mesh.middle_ring()) * 1e3;
+        let d = mid + THIN_WALL_MM * mid_mm / mid;
+        let want = thin.pressure_kpa(d).unwrap() * 1e3 * scale;
+        let lz_want = thin.axial_stretch(d).unwrap();
+        let far = skin.mesh.ring(skin.mesh.along).start;
+        let lz = skin.position_m[far].z / spec.length_m;
+        let err = (p - want) / want;
+        println!(
+            "closed ends: D = {:.3} mm, p = {p} Pa vs closed form {want:.2} Pa ({:+.3} %), λz = {lz:.5} vs {lz_want:.5}",
+            skin.outer_diameter_at_mid_length_m() * 1e3,
+            100.0 * err
+        );
+        assert!(err.abs() < 0.02, "{err}");
+        assert!((lz - lz_want).abs() < 0.01 * (lz_want - 1.0).abs().max(0.01));
+    }
+}

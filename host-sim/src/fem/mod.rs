@@ -117,6 +117,10 @@ pub enum Ends {
     PlaneStrain,
     /// End rings fixed to the rigid rest of the body.
     Clamped,
+    /// Closed ends, free length: the z = 0 ring held axially (free
+    /// radially), the far ring free and pulled by the pressure on a flat
+    /// end cap spanning it (the closed-end tube, for verification).
+    Closed,
 }
 
 /// Loading by injected volume: the fluid inside is a penalty (a stiff
@@ -160,6 +164,8 @@ pub struct Skin<S: StrainEnergy> {
     pub mass_kg: Vec<f64>,
     /// Per node and component: held fixed.
     pub fixed: Vec<[bool; 3]>,
+    /// How the ends are held.
+    pub ends: Ends,
     /// Internal minus external fluid pressure on the inner surface (Pa):
     /// set by the caller, or by [`Skin::volume_control`] when that is on.
     pub pressure_pa: f64,
@@ -200,9 +206,10 @@ impl<S: StrainEnergy> Skin<S> {
         let mut fixed = vec![[false; 3]; n];
         for j in [0, mesh.along] {
             for a in mesh.ring(j) {
-                fixed[a] = match ends {
-                    Ends::PlaneStrain => [false, false, true],
-                    Ends::Clamped => [true; 3],
+                fixed[a] = match (ends, j) {
+                    (Ends::PlaneStrain, _) | (Ends::Closed, 0) => [false, false, true],
+                    (Ends::Clamped, _) => [true; 3],
+                    (Ends::Closed, _) => [false; 3],
                 };
             }
         }
@@ -212,6 +219,7 @@ impl<S: StrainEnergy> Skin<S> {
             position_m: mesh.rest_m.clone(),
             velocity_m_s: vec![Vector3::zeros(); n],
             external_force_n: vec![Vector3::zeros(); n],
+            ends,
             mesh,
             elements,
             mass_kg,
@@ -291,6 +299,9 @@ impl<S: StrainEnergy> Skin<S> {
         self.internal_forces_n(out)?;
         out.iter_mut().for_each(|f| *f = -*f);
         self.add_pressure_forces_n(out);
+        if self.ends == Ends::Closed {
+            self.add_end_cap_forces_n(out);
+        }
         for ((r, ext), fix) in out.iter_mut().zip(&self.external_force_n).zip(&self.fixed) {
             *r += ext;
             for k in 0..3 {
@@ -300,6 +311,23 @@ impl<S: StrainEnergy> Skin<S> {
             }
         }
         Ok(())
+    }
+
+    /// The pressure on the flat cap closing the far ring (closed ends),
+    /// shared equally by the ring's nodes: p times the ring polygon's
+    /// area vector ½Σ (x_i − c) × (x_{i+1} − c), c its centroid.
+    fn add_end_cap_forces_n(&self, out: &mut [Vector3<f64>]) {
+        let ring = self.mesh.ring(self.mesh.along);
+        let n = ring.len();
+        let x = &self.position_m[ring.clone()];
+        let c = x.iter().sum::<Vector3<f64>>() / n as f64;
+        let area: Vector3<f64> = (0..n)
+            .map(|i| 0.5 * (x[i] - c).cross(&(x[(i + 1) % n] - c)))
+            .sum();
+        let share = area * (self.pressure_pa / n as f64);
+        for a in ring {
+            out[a] += share;
+        }
     }
 
     /// A stable explicit time step (s) at the current strain: half the
