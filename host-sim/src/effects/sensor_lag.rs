@@ -8,11 +8,15 @@
 //! pressure (the conversion averages over ~2 ms, much shorter than the age
 //! of the sample), it only hands over an older value. The model has no
 //! pressure history, but between two samples the pump volume is a straight
-//! line, so the pressure δ ago is the model at the volume δ ago,
-//! V(t − δ) = V(t) − Q·δ (Q the pump flow over the last step). The effect
-//! therefore holds back Q·δ of the pumped volume: exact (linear
-//! interpolation of the volume log) for δ up to one sample interval, a
-//! constant-flow extrapolation beyond. The whole chain is evaluated at the
+//! line, so the pressure δ ago is the model at the volume δ ago: the effect
+//! holds back h = V(t) − V(t − δ), the volume pumped during the last δ.
+//! For δ up to the step, h = Q·δ (Q the pump flow over the step): exact,
+//! linear interpolation of the volume log. For a longer δ the log before
+//! the step is gone, so h is carried from step to step, assuming the
+//! window δ it spans was pumped at a uniform rate h/δ: h ← h·(1 − dt/δ) +
+//! Q·dt. That is Q·δ again at constant flow (its fixed point), meets the
+//! exact rule at dt = δ, and stays smooth on a stepper's jerky 1 ms
+//! flow, where Q·δ would jump. The whole chain is evaluated at the
 //! earlier volume, so the prediction's internal pressure and diameter are
 //! the delayed ones too; the flow terms of the reading (line loss, piston
 //! friction) stay at the current flow. An emulator plant must not switch it
@@ -40,7 +44,8 @@ pub static SPEC: EffectSpec = EffectSpec {
     not_applicable: |_| None,
 };
 
-/// A pure delay of the reading. No state.
+/// A pure delay of the reading. State: [volume pumped during the last δ
+/// (mL), -].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SensorLag {
     /// Age of the reading (s).
@@ -54,16 +59,23 @@ impl Effect for SensorLag {
     fn holds_volume(&self) -> bool {
         true
     }
-    fn held_volume_ml(&self, _: &mut EffectState, ctx: &StepContext, _: f64) -> f64 {
-        // The volume pumped during the last δ (negative while shrinking).
-        ctx.pump_flow_ml_s * self.lag_s
+    fn held_volume_ml(&self, state: &mut EffectState, ctx: &StepContext, _: f64) -> f64 {
+        // `state` is a trial copy of the committed value (negative while
+        // shrinking).
+        state[0] = if ctx.dt_s >= self.lag_s {
+            ctx.pump_flow_ml_s * self.lag_s
+        } else {
+            state[0] * (1.0 - ctx.dt_s / self.lag_s) + ctx.pump_flow_ml_s * ctx.dt_s
+        };
+        state[0]
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use crate::effects::EffectInstance;
-    use crate::experiment::Rig;
+    use super::SensorLag;
+    use crate::effects::{Effect, EffectInstance, EffectState, StepContext};
+    use crate::experiment::{PressureSource, Rig};
     use crate::model::{Params, RigModel};
 
     /// Pump volume (mL) of a triangle: up at 2.5 mL/s to 4 mL, then down.
@@ -109,5 +121,53 @@ mod tests {
         }
         // And the delay matters: ≥ 0.05 kPa somewhere on this curve.
         assert!(largest_shift_kpa > 0.05, "{largest_shift_kpa}");
+    }
+
+    fn ctx(dt_s: f64, flow_ml_s: f64) -> StepContext {
+        StepContext {
+            t_s: 1.0,
+            dt_s,
+            pump_flow_ml_s: flow_ml_s,
+            depth_mm: 0.0,
+            absolute_rest_kpa: 101.325,
+            pressure_source: PressureSource::LineSensor,
+            bore_area_mm2: 670.0,
+            initial_diameter_mm: 18.7,
+        }
+    }
+
+    /// δ longer than the step: from rest at constant Q the held volume is
+    /// Q·δ·(1 − (1 − dt/δ)^n) after n steps (the recursion's closed form),
+    /// tending to the pure delay's Q·δ.
+    #[test]
+    fn long_lag_tends_to_flow_times_lag() {
+        let lag = SensorLag { lag_s: 0.25 };
+        let (dt, q) = (0.01, 2.0);
+        let mut st: EffectState = [0.0; 2];
+        for n in 1..=200 {
+            let h = lag.held_volume_ml(&mut st, &ctx(dt, q), 0.0);
+            let want = q * 0.25 * (1.0 - (1.0 - dt / 0.25f64).powi(n));
+            assert!((h - want).abs() < 1e-12, "n = {n}: {h} vs {want}");
+        }
+        assert!((st[0] - q * 0.25).abs() < 1e-3 * q * 0.25, "{}", st[0]);
+    }
+
+    /// A stepper seen every 1 ms: one 0.5 µL microstep every 2.5 ms
+    /// (0.2 mL/s on average) makes the 1 ms flow jump between 0 and
+    /// 0.5 mL/s. Q·δ would jump between 0 and 0.125 mL at δ = 0.25 s; the
+    /// carried window settles within 2 % of the mean flow times δ, 0.05 mL.
+    #[test]
+    fn jerky_flow_is_smoothed_over_the_window() {
+        let lag = SensorLag { lag_s: 0.25 };
+        let mut st: EffectState = [0.0; 2];
+        let mut held = Vec::new();
+        for ms in 1..=3000u32 {
+            let stepped = |t: u32| f64::from(t * 2 / 5) * 0.5e-3;
+            let q = (stepped(ms) - stepped(ms - 1)) / 1e-3;
+            held.push(lag.held_volume_ml(&mut st, &ctx(1e-3, q), 0.0));
+        }
+        for h in &held[2000..] {
+            assert!((h - 0.05).abs() < 0.02 * 0.05, "{h}");
+        }
     }
 }
