@@ -1,7 +1,7 @@
 //! Particle–skin contact: force balance, the Hertz penalty, a bounce on
 //! the pressurised skin, and the front face's pressure.
 
-use host_sim::coupling::{Coupling, FrontFace};
+use host_sim::coupling::{expand, Coupling, Expansion, FrontFace};
 use host_sim::dem::contact::{ContactModel, ContactSpec, Material};
 use host_sim::dem::{step, Params, Particles, State, Wall};
 use host_sim::fem::{Ends, Skin, SkinSpec};
@@ -381,4 +381,51 @@ fn a_dem_step_longer_than_the_skins_stable_step_is_subcycled() {
         (d1 - d_static).abs() < 5e-3 * d_static,
         "{d1} vs {d_static}"
     );
+}
+
+#[test]
+fn a_slow_expansion_in_free_water_follows_the_static_skin_curve() {
+    let mut skin = Skin::new(default_skin(), &SkinSpec::paper(24, 6), Ends::Clamped).unwrap();
+    skin.damping_per_s = 100.0;
+    let model =
+        ContactModel::hertz_mindlin(&SAND, &skin_material(), &ContactSpec::default()).unwrap();
+    let dt = 5e-5;
+    let params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    let mut p = Particles::new();
+    p.push(Vector3::new(0.0, 0.0, 0.5), Vector3::zeros(), 1e-3, 2920.0)
+        .unwrap();
+    let mut state = State::new(p);
+    let mut c = Coupling::new(skin, model, dt).unwrap();
+    let e = Expansion {
+        final_diameter_m: 25e-3,
+        volume_rate_m3_s: 1e-5,
+        bulk_modulus_pa: 1e6,
+        sample_every: 500,
+        max_steps: 20_000,
+    };
+    let mut seen = 0;
+    let samples = expand(&params, &mut state, &mut c, &e, |_| seen += 1).unwrap();
+    assert_eq!(seen, samples.len());
+    let last = samples.last().unwrap();
+    assert!(last.outer_diameter_m >= 25e-3 && last.outer_diameter_m < 25.1e-3);
+    for w in samples.windows(2) {
+        assert!(w[1].outer_diameter_m > w[0].outer_diameter_m);
+        assert!(w[1].internal_pressure_pa > w[0].internal_pressure_pa);
+    }
+    // Quasi-static: the pressure is the relaxed skin's at the same volume.
+    let mut reference = c.skin.clone();
+    reference.relax(1e-7, 400_000).unwrap();
+    let err = last.internal_pressure_pa / reference.pressure_pa - 1.0;
+    println!(
+        "expansion: {} samples to D = {:.3} mm in {:.3} s; p_i = {:.1} Pa vs static {:.1} Pa ({:+.2} %), max von Mises {:.0} Pa",
+        samples.len(),
+        last.outer_diameter_m * 1e3,
+        last.time_s,
+        last.internal_pressure_pa,
+        reference.pressure_pa,
+        100.0 * err,
+        last.max_von_mises_pa
+    );
+    assert!(err.abs() < 0.02, "{err}");
+    assert_eq!(last.sand_pressure_pa, 0.0);
 }

@@ -14,8 +14,10 @@
 //! the skin to the particles' time with the contact forces of the previous
 //! evaluation (central difference), then evaluates the contacts at that
 //! common time. A [`FrontFace`] (the head's cap) can ride along; its sand
-//! pressure is read after each step.
+//! pressure is read after each step. [`expand`] drives a run: injected
+//! volume at a constant rate up to a target diameter, sampled as it goes.
 
+pub mod expansion;
 pub mod face;
 pub mod geometry;
 
@@ -28,6 +30,7 @@ use crate::dem::contact::{ContactForce, ContactGeometry, ContactModel, History};
 use crate::dem::{Particles, Sink};
 use crate::fem::{FemError, Skin};
 use crate::skin::StrainEnergy;
+pub use expansion::{expand, Expansion, ExpansionError};
 pub use face::FrontFace;
 use geometry::closest_point_on_triangle;
 

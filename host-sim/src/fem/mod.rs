@@ -34,7 +34,7 @@ use element::{internal_forces_n, Strain, Triangle};
 use mesh::TubeMesh;
 
 /// What can go wrong in the skin solver.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum FemError {
     /// A parameter is out of its range.
     #[error("FEM parameter {name} = {value} is out of range")]

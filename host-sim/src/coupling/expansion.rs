@@ -1,0 +1,112 @@
+//! Driving the coupled run: the zone inflated by injected volume at a
+//! constant rate until its mid-length diameter reaches a target, sampling
+//! D, p_i, p_e, p_h and the skin stress along the way.
+
+use super::{Coupling, Sample};
+use crate::dem::{step, DemError, Params, State};
+use crate::fem::{FemError, VolumeControl};
+use crate::skin::StrainEnergy;
+
+/// Why an expansion stopped early.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ExpansionError {
+    /// The DEM step failed.
+    #[error("DEM: {0}")]
+    Dem(#[from] DemError),
+    /// The skin failed.
+    #[error("skin: {0}")]
+    Fem(#[from] FemError),
+    /// A parameter is out of range.
+    #[error("expansion parameter {name} = {value} is out of range")]
+    Param {
+        /// Which parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// The step budget ran out before the target diameter.
+    #[error("the diameter reached only {reached_m} m of {target_m} m in {steps} steps")]
+    NotReached {
+        /// Diameter reached (m).
+        reached_m: f64,
+        /// Target diameter (m).
+        target_m: f64,
+        /// Steps taken.
+        steps: usize,
+    },
+}
+
+/// How to inflate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Expansion {
+    /// Stop when the outer diameter at mid-length reaches this (m).
+    pub final_diameter_m: f64,
+    /// Injection rate (m³/s).
+    pub volume_rate_m3_s: f64,
+    /// Penalty bulk modulus of the fluid (Pa), ≫ the pressures reached.
+    pub bulk_modulus_pa: f64,
+    /// A sample every this many DEM steps (and one at the end).
+    pub sample_every: usize,
+    /// Step budget.
+    pub max_steps: usize,
+}
+
+/// Inflates `coupling.skin` by volume from its current state while `state`
+/// steps under `params`, until [`Expansion::final_diameter_m`]; returns
+/// the samples (first at the start, last at the target), each also handed
+/// to `on_sample` as it is taken (progress bars, files).
+pub fn expand<S: StrainEnergy>(
+    params: &Params,
+    state: &mut State,
+    coupling: &mut Coupling<S>,
+    e: &Expansion,
+    mut on_sample: impl FnMut(&Sample),
+) -> Result<Vec<Sample>, ExpansionError> {
+    let bad = |name, value| ExpansionError::Param { name, value };
+    if !(e.volume_rate_m3_s > 0.0 && e.volume_rate_m3_s.is_finite()) {
+        return Err(bad("volume_rate_m3_s", e.volume_rate_m3_s));
+    }
+    if !(e.bulk_modulus_pa > 0.0 && e.bulk_modulus_pa.is_finite()) {
+        return Err(bad("bulk_modulus_pa", e.bulk_modulus_pa));
+    }
+    if e.sample_every == 0 {
+        return Err(bad("sample_every", 0.0));
+    }
+    let skin = &mut coupling.skin;
+    // Start from the fluid volume of the present state (its pressure kept).
+    let v = skin.enclosed_volume_m3();
+    let start = v * (1.0 + skin.pressure_pa / e.bulk_modulus_pa);
+    skin.volume_control = Some(VolumeControl {
+        target_volume_m3: start,
+        bulk_modulus_pa: e.bulk_modulus_pa,
+    });
+    let mut samples = Vec::new();
+    let mut take = |c: &Coupling<S>, out: &mut Vec<Sample>| -> Result<(), FemError> {
+        let s = c.sample()?;
+        on_sample(&s);
+        out.push(s);
+        Ok(())
+    };
+    take(coupling, &mut samples)?;
+    for steps in 1..=e.max_steps {
+        if let Some(vc) = &mut coupling.skin.volume_control {
+            vc.target_volume_m3 += e.volume_rate_m3_s * params.dt_s;
+        }
+        step(params, state, coupling)?;
+        if let Some(err) = coupling.error() {
+            return Err(err.clone().into());
+        }
+        let done = coupling.skin.outer_diameter_at_mid_length_m() >= e.final_diameter_m;
+        if done || steps % e.sample_every == 0 {
+            take(coupling, &mut samples)?;
+        }
+        if done {
+            return Ok(samples);
+        }
+    }
+    Err(ExpansionError::NotReached {
+        reached_m: coupling.skin.outer_diameter_at_mid_length_m(),
+        target_m: e.final_diameter_m,
+        steps: e.max_steps,
+    })
+}
