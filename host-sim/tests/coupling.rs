@@ -188,7 +188,7 @@ fn the_front_face_reads_the_weight_of_the_grains_resting_on_it() {
     .unwrap();
     let weight: f64 = p.mass_kg[..7].iter().sum::<f64>() * 9.81;
     let mut state = State::new(p);
-    for _ in 0..20_000 {
+    for _ in 0..5_000 {
         step(&params, &mut state, &mut face).unwrap();
     }
     let want = weight / face.area_m2();
