@@ -15,6 +15,10 @@ fn demo_runs_end_to_end_and_writes_its_results() {
     // The emulated burrowing reaches its expected outcome (20 cycles).
     assert!(text.contains("cycles completed: 20"), "{text}");
     assert!(text.contains("outcome: as expected"), "{text}");
+    // The emulated sensor reads ~9 ms late (conversion + sampling); the
+    // workbench must name that and nothing else, and leave no structure.
+    assert!(text.contains("selected: sensor_lag\n"), "{text}");
+    assert!(text.contains("unexplained: none"), "{text}");
     assert!(dir.path().join("emulate/runs.csv").is_file());
     assert!(dir
         .path()
