@@ -21,6 +21,8 @@
 //!   an experiment folder (`compare`, `diagnose`, `ledger`);
 //! - [`emulate`]: the firmware's controller closed around a simulated plant
 //!   (scenarios, traces, QEMU replay recordings);
+//! - [`simulate`]: the paper's expansion scenario in coarse-grained DEM sand
+//!   coupled to the FEM skin (`host-sim simulate`);
 //! - [`demo`]: the end-to-end demo on built-in defaults (`cargo demo`);
 //! - [`files`]: atomic result files.
 
@@ -36,6 +38,7 @@ pub mod files;
 pub mod model;
 pub mod pressure_model;
 pub mod sand;
+pub mod simulate;
 pub mod skin;
 pub mod tables;
 pub mod telemetry;

@@ -46,6 +46,23 @@ enum Command {
         #[arg(long, default_value = ".")]
         out: PathBuf,
     },
+    /// The paper's scenario: the zone expanding from 18.7 to 25 mm in
+    /// submerged coarse-grained DEM sand at a depth, coupled to the FEM
+    /// skin; writes samples.csv, pressures.svg, summary.txt and VTK frames.
+    Simulate {
+        /// Depth of the zone's axis below the sand surface (mm).
+        #[arg(long = "depth-mm", default_value_t = 40.0)]
+        depth_mm: f64,
+        /// Grain radius of the coarse-grained sand (mm).
+        #[arg(long = "grain-radius-mm", default_value_t = 1.5)]
+        grain_radius_mm: f64,
+        /// Folder for the results; default out/simulate-hDEPTH.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Shorter settling and expansion (about half the steps).
+        #[arg(long)]
+        quick: bool,
+    },
     /// Benchmarks (`bench dem`: the DEM throughput problem of shared/bench).
     Bench {
         #[command(subcommand)]
@@ -173,6 +190,28 @@ fn run(cli: Cli) -> Result<()> {
                 done.json_path.display(),
                 done.svg_path.display()
             );
+        }
+        Command::Simulate {
+            depth_mm,
+            grain_radius_mm,
+            out,
+            quick,
+        } => {
+            use host_sim::simulate::{simulate, Options, ScenarioSpec};
+            let (h, r) = (depth_mm * 1e-3, grain_radius_mm * 1e-3);
+            let spec = if quick {
+                ScenarioSpec::quick(h, r)
+            } else {
+                ScenarioSpec::paper(h, r)
+            };
+            let out = out.unwrap_or_else(|| PathBuf::from(format!("out/simulate-h{depth_mm}mm")));
+            let report = simulate(&Options {
+                spec,
+                out: Some(out.clone()),
+                progress: true,
+            })?;
+            print!("{}", report.text());
+            println!("wrote {}", out.display());
         }
         Command::Bench {
             what:

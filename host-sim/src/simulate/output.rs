@@ -1,0 +1,153 @@
+//! Result files of a scenario run: the samples as CSV, p_e, p_i and p_h
+//! against D as an SVG plot, and VTK frames (grains as points with their
+//! radius, the skin mesh) with `.vtk.series` indexes for ParaView. All
+//! written atomically.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{anyhow, Context, Result};
+use plotters::prelude::*;
+
+use crate::coupling::Sample;
+use crate::dem::Particles;
+use crate::files::write_atomic;
+
+/// The samples as CSV: time, D, p_i, p_e, p_h, max von Mises, contacts.
+pub fn samples_csv(samples: &[Sample]) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "time_s",
+        "diameter_mm",
+        "internal_pressure_kpa",
+        "sand_pressure_kpa",
+        "front_pressure_kpa",
+        "max_von_mises_mpa",
+        "skin_contacts",
+    ])?;
+    for s in samples {
+        w.write_record([
+            format!("{:.6}", s.time_s),
+            format!("{:.4}", s.outer_diameter_m * 1e3),
+            format!("{:.5}", s.internal_pressure_pa * 1e-3),
+            format!("{:.5}", s.sand_pressure_pa * 1e-3),
+            format!("{:.5}", s.face_pressure_pa.unwrap_or(f64::NAN) * 1e-3),
+            format!("{:.6}", s.max_von_mises_pa * 1e-6),
+            s.contacts.to_string(),
+        ])?;
+    }
+    w.into_inner().map_err(|e| anyhow!("CSV buffer: {e}"))
+}
+
+fn plot_err(e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow!("plotting: {e}")
+}
+
+/// p_e, p_i and p_h (kPa) against D (mm) as SVG text.
+pub fn pressure_plot_svg(samples: &[Sample], title: &str) -> Result<String> {
+    let pts = |f: &dyn Fn(&Sample) -> f64| -> Vec<(f64, f64)> {
+        samples
+            .iter()
+            .map(|s| (s.outer_diameter_m * 1e3, f(s) * 1e-3))
+            .filter(|p| p.1.is_finite())
+            .collect()
+    };
+    let series = [
+        ("p_i (internal)", pts(&|s| s.internal_pressure_pa), BLUE),
+        ("p_e (sand on skin)", pts(&|s| s.sand_pressure_pa), RED),
+        (
+            "p_h (sand on front face)",
+            pts(&|s| s.face_pressure_pa.unwrap_or(f64::NAN)),
+            GREEN,
+        ),
+    ];
+    let all = series.iter().flat_map(|s| s.1.iter());
+    let (x0, x1) = all
+        .clone()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.0), b.max(p.0))
+        });
+    let y1 = all.fold(0.0f64, |a, p| a.max(p.1)) * 1.05 + 1e-3;
+    let (x0, x1) = if x0 < x1 { (x0, x1) } else { (18.0, 26.0) };
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 560)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 20))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, 0.0..y1)
+            .map_err(plot_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("outer diameter D (mm)")
+            .y_desc("pressure (kPa)")
+            .draw()
+            .map_err(plot_err)?;
+        for (name, data, colour) in series {
+            chart
+                .draw_series(LineSeries::new(data, colour.stroke_width(2)))
+                .map_err(plot_err)?
+                .label(name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()
+            .map_err(plot_err)?;
+        root.present().map_err(plot_err)?;
+    }
+    Ok(svg)
+}
+
+/// The grains as legacy VTK polydata: points with radius and speed.
+pub fn particles_vtk(p: &Particles, time_s: f64) -> String {
+    let n = p.len();
+    let mut s = String::new();
+    // Writing to a String cannot fail.
+    let _ = writeln!(s, "# vtk DataFile Version 3.0");
+    let _ = writeln!(s, "urechis grains, t = {time_s} s");
+    let _ = writeln!(s, "ASCII\nDATASET POLYDATA\nPOINTS {n} double");
+    for x in &p.position_m {
+        let _ = writeln!(s, "{:e} {:e} {:e}", x.x, x.y, x.z);
+    }
+    let _ = writeln!(s, "VERTICES {n} {}", 2 * n);
+    for i in 0..n {
+        let _ = writeln!(s, "1 {i}");
+    }
+    let _ = writeln!(
+        s,
+        "POINT_DATA {n}\nSCALARS radius_m double 1\nLOOKUP_TABLE default"
+    );
+    for r in &p.radius_m {
+        let _ = writeln!(s, "{r:e}");
+    }
+    let _ = writeln!(s, "SCALARS speed_m_s double 1\nLOOKUP_TABLE default");
+    for v in &p.velocity_m_s {
+        let _ = writeln!(s, "{:e}", v.norm());
+    }
+    s
+}
+
+/// A ParaView `.vtk.series` index: file names (relative) and times (s).
+pub fn vtk_series(frames: &[(String, f64)]) -> String {
+    let files: Vec<String> = frames
+        .iter()
+        .map(|(name, t)| format!("    {{ \"name\": \"{name}\", \"time\": {t} }}"))
+        .collect();
+    format!(
+        "{{\n  \"file-series-version\": \"1.0\",\n  \"files\": [\n{}\n  ]\n}}\n",
+        files.join(",\n")
+    )
+}
+
+/// Writes `text` to `dir/name` atomically.
+pub fn write_text(dir: &Path, name: &str, text: &[u8]) -> Result<()> {
+    let path = dir.join(name);
+    write_atomic(&path, text).with_context(|| format!("writing {}", path.display()))
+}

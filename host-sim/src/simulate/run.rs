@@ -1,0 +1,142 @@
+//! Running a scenario: settle the bed round the pressurised zone, then
+//! inflate it by injected volume to the final diameter, in chunks of equal
+//! diameter steps so the caller can save a frame between them.
+
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::scenario::{wall, Bed, FLUID_BULK_MODULUS_PA};
+use crate::coupling::{expand, Expansion, Sample};
+use crate::dem::step;
+
+/// Velocity relaxation time of the settling drag (s).
+const SETTLE_DRAG_S: f64 = 0.02;
+
+/// The bed at the end of settling.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settled {
+    /// Force the grains put on the floor, upwards positive (N).
+    pub floor_force_n: f64,
+    /// Vertical support from everything (floor, side-wall friction, skin)
+    /// (N): equals the buoyant weight at rest.
+    pub support_n: f64,
+    /// Buoyant weight of all grains, the surcharge's included (N).
+    pub buoyant_weight_n: f64,
+    /// Highest grain top of the slab (m above the axis).
+    pub slab_top_m: f64,
+    /// The state then: D, p_i, p_e, p_h.
+    pub sample: Sample,
+    /// Kinetic energy left (J).
+    pub kinetic_energy_j: f64,
+}
+
+/// Vertical support of the grains by walls and skin (N).
+fn support_n(bed: &Bed) -> f64 {
+    let walls: f64 = bed.state.wall_forces_n().iter().map(|f| -f.y).sum();
+    walls + bed.coupling.last_exchange().on_particles_n.y
+}
+
+/// Lets the grains settle for `spec.settle_s` round the zone holding its
+/// resting fluid volume.
+pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
+    let steps = (bed.spec.settle_s / bed.params.dt_s).ceil() as u64;
+    bar.set_length(steps);
+    bar.set_position(0);
+    bar.set_message("settling");
+    // Water drag stand-in while settling only: velocities relax with a
+    // time constant of SETTLE_DRAG_S, so the heavy surcharge layer stops
+    // bouncing on the soft bed (contact damping alone left it ≈ 9 % off
+    // its weight after 0.2 s).
+    let keep = (-bed.params.dt_s / SETTLE_DRAG_S).exp();
+    for k in 0..steps {
+        step(&bed.params, &mut bed.state, &mut bed.coupling).context("settling the bed")?;
+        let p = &mut bed.state.particles;
+        p.velocity_m_s.iter_mut().for_each(|v| *v *= keep);
+        p.angular_velocity_rad_s.iter_mut().for_each(|w| *w *= keep);
+        if let Some(e) = bed.coupling.error() {
+            return Err(e.clone()).context("skin while settling");
+        }
+        if k % 100 == 0 {
+            bar.set_position(k);
+        }
+    }
+    bar.set_position(steps);
+    let p = &bed.state.particles;
+    let slab_top_m = (0..bed.slab_grains)
+        .map(|i| p.position_m[i].y + p.radius_m[i])
+        .fold(f64::NEG_INFINITY, f64::max);
+    Ok(Settled {
+        floor_force_n: -bed.state.wall_forces_n()[wall::FLOOR].y,
+        support_n: support_n(bed),
+        buoyant_weight_n: bed.buoyant_weight_n(),
+        slab_top_m,
+        sample: bed.coupling.sample()?,
+        kinetic_energy_j: p.kinetic_energy_j(),
+    })
+}
+
+/// Inflates the zone from its settled state to `spec.final_diameter_m` in
+/// `spec.frames` equal diameter steps, the injection rate set so the whole
+/// takes about `spec.expansion_s`; `on_frame(bed, frame)` runs before the
+/// first chunk and after each. Returns the samples in order.
+pub fn inflate(
+    bed: &mut Bed,
+    bar: &ProgressBar,
+    mut on_frame: impl FnMut(&Bed, usize) -> Result<()>,
+) -> Result<Vec<Sample>> {
+    let spec = bed.spec.clone();
+    let d0 = bed.coupling.skin.outer_diameter_at_mid_length_m();
+    let d1 = spec.final_diameter_m;
+    anyhow::ensure!(
+        d0 < d1,
+        "the settled zone is already {:.2} mm across",
+        d0 * 1e3
+    );
+    // Volume to inject: a cylinder of the zone's length from D0 to D1
+    // times 0.6 for the clamped ends' bulge (only sets the rate).
+    let len = bed.coupling.skin.spec.length_m;
+    let dv = 0.6 * std::f64::consts::PI / 4.0 * len * (d1 * d1 - d0 * d0);
+    let dt = bed.params.dt_s;
+    let total_steps = (spec.expansion_s / dt).ceil() as usize;
+    let sample_every = (total_steps / spec.samples).max(1);
+    bar.set_length(1000);
+    bar.set_position(0);
+    bar.set_message("expanding");
+    let mut samples: Vec<Sample> = Vec::new();
+    on_frame(bed, 0)?;
+    for frame in 1..=spec.frames {
+        let target = d0 + (d1 - d0) * frame as f64 / spec.frames as f64;
+        let e = Expansion {
+            final_diameter_m: target,
+            volume_rate_m3_s: dv / spec.expansion_s,
+            bulk_modulus_pa: FLUID_BULK_MODULUS_PA,
+            sample_every,
+            max_steps: 4 * total_steps,
+        };
+        let chunk = expand(&bed.params, &mut bed.state, &mut bed.coupling, &e, |s| {
+            let done = (s.outer_diameter_m - d0) / (d1 - d0);
+            bar.set_position((1000.0 * done.clamp(0.0, 1.0)) as u64);
+        })
+        .with_context(|| format!("expanding to {:.2} mm", target * 1e3))?;
+        // Each chunk starts with the previous one's last state.
+        let skip = usize::from(!samples.is_empty());
+        samples.extend(chunk.into_iter().skip(skip));
+        on_frame(bed, frame)?;
+    }
+    Ok(samples)
+}
+
+/// A progress bar on stderr (hidden when `show` is false).
+pub fn progress_bar(show: bool) -> Result<ProgressBar> {
+    let bar = if show {
+        ProgressBar::new(1)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>10} [{bar:40}] {percent:>3}% {elapsed} ({eta} left)")
+            .context("progress bar template")?
+            .progress_chars("=> "),
+    );
+    Ok(bar)
+}

@@ -1,0 +1,345 @@
+//! The paper's expansion scenario as a bed: the zone's skin (axis along z,
+//! from z = 0 to its length, centred at x = y = 0), coarse-grained sand
+//! round it in a box of the paper's 40 mm width, gravity along −y, the
+//! grains submerged; the rigid front face closing the zone at z = L with
+//! sand ahead of it. The overburden above the slab is a surcharge layer:
+//! the top lattice rows are made heavier so that their buoyant weight per
+//! unit area is γ'·(h − slab top), the vertical effective stress there.
+//!
+//! Walls: the floor, the z = 0 plane (the body behind the zone) and the far
+//! z end are frictionless (artificial cuts of a larger bed); the two x
+//! walls are the box's, with the grains' friction.
+
+use anyhow::{ensure, Result};
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+
+use crate::coupling::{Coupling, FrontFace};
+use crate::dem::{ContactModel, ContactSpec, Material, Params, Particles, State, Wall};
+use crate::fem::{Ends, Skin, SkinSpec, VolumeControl};
+use crate::skin::{default_skin, StrainEnergy, Yeoh};
+
+/// Grain density of the paper's sand (kg/m³).
+pub const GRAIN_DENSITY_KG_M3: f64 = 2920.0;
+/// Density of the water the sand is submerged in (kg/m³).
+pub const WATER_DENSITY_KG_M3: f64 = 1025.0;
+/// Inter-grain friction of the paper.
+pub const FRICTION: f64 = 0.25;
+/// Penalty bulk modulus of the zone's fluid (Pa): ≫ the few kPa reached.
+pub const FLUID_BULK_MODULUS_PA: f64 = 1e6;
+/// Standard gravity (m/s²).
+pub const GRAVITY_M_S2: f64 = 9.81;
+
+/// Everything that sets up one scenario run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScenarioSpec {
+    /// Depth of the zone's axis below the sand surface h (m).
+    pub depth_m: f64,
+    /// Grain radius of the coarse-grained sand (m).
+    pub grain_radius_m: f64,
+    /// Box width across the axis (m): the paper's 40 mm.
+    pub box_width_m: f64,
+    /// Sand ahead of the front face along the axis (m).
+    pub ahead_m: f64,
+    /// Floor below the axis (m).
+    pub below_m: f64,
+    /// Nominal top of the simulated slab above the axis (m); the overburden
+    /// above it is the surcharge layer.
+    pub above_m: f64,
+    /// Solid fraction assumed for the settled bed (for the grain count and
+    /// the buoyant unit weight γ' = φ (ρ_s − ρ_w) g).
+    pub packing: f64,
+    /// Lattice rows of heavy grains carrying the surcharge.
+    pub surcharge_rows: usize,
+    /// Settling time before the expansion (s).
+    pub settle_s: f64,
+    /// Target duration of the expansion (s): sets the injection rate.
+    pub expansion_s: f64,
+    /// Final outer diameter at mid-length (m).
+    pub final_diameter_m: f64,
+    /// Skin mesh: nodes round, rows along.
+    pub skin_mesh: (usize, usize),
+    /// VTK frames over the expansion (≥ 1).
+    pub frames: usize,
+    /// Samples over the expansion (about).
+    pub samples: usize,
+    /// Lattice jitter seed.
+    pub seed: u64,
+}
+
+impl ScenarioSpec {
+    /// The full case at depth `depth_m` (m) with grains of radius
+    /// `grain_radius_m` (m).
+    pub fn paper(depth_m: f64, grain_radius_m: f64) -> ScenarioSpec {
+        ScenarioSpec {
+            depth_m,
+            grain_radius_m,
+            box_width_m: 40e-3,
+            ahead_m: 15e-3,
+            below_m: 20e-3,
+            above_m: 20e-3,
+            packing: 0.6,
+            surcharge_rows: 2,
+            settle_s: 0.3,
+            expansion_s: 0.3,
+            final_diameter_m: 25e-3,
+            skin_mesh: (24, 6),
+            frames: 10,
+            samples: 200,
+            seed: 1,
+        }
+    }
+
+    /// A shorter run of the same case (settling 0.2 s, expansion 0.15 s).
+    pub fn quick(depth_m: f64, grain_radius_m: f64) -> ScenarioSpec {
+        ScenarioSpec {
+            settle_s: 0.2,
+            expansion_s: 0.15,
+            frames: 5,
+            samples: 100,
+            ..ScenarioSpec::paper(depth_m, grain_radius_m)
+        }
+    }
+
+    /// Buoyant unit weight of the sand γ' = φ (ρ_s − ρ_w) g (N/m³).
+    pub fn buoyant_unit_weight_n_m3(&self) -> f64 {
+        self.packing * (GRAIN_DENSITY_KG_M3 - WATER_DENSITY_KG_M3) * GRAVITY_M_S2
+    }
+
+    /// Vertical effective stress the surcharge layer applies on the slab
+    /// top: γ'·(h − slab top) (Pa).
+    pub fn surcharge_pa(&self) -> f64 {
+        self.buoyant_unit_weight_n_m3() * (self.depth_m - self.above_m)
+    }
+
+    /// Vertical effective stress at the axis, γ'·h (Pa).
+    pub fn vertical_stress_at_axis_pa(&self) -> f64 {
+        self.buoyant_unit_weight_n_m3() * self.depth_m
+    }
+
+    /// Slab length along the axis: the zone plus the sand ahead (m).
+    pub fn slab_length_m(&self) -> f64 {
+        SkinSpec::paper(3, 1).length_m + self.ahead_m
+    }
+
+    /// DEM time step (s): the throughput benchmark's 1.5e-5 s for 1 mm
+    /// grains, scaled with the radius (contact time ∝ r at equal
+    /// velocities and moduli).
+    pub fn dt_s(&self) -> f64 {
+        1.5e-5 * self.grain_radius_m / 1e-3
+    }
+
+    fn validate(&self) -> Result<()> {
+        let pos = |v: f64| v > 0.0 && v.is_finite();
+        ensure!(pos(self.grain_radius_m), "grain radius must be positive");
+        ensure!(
+            self.depth_m > self.above_m && self.depth_m.is_finite(),
+            "depth {} mm must be below the slab top at {} mm above the axis",
+            self.depth_m * 1e3,
+            self.above_m * 1e3
+        );
+        ensure!(
+            self.grain_radius_m <= 3e-3,
+            "grain radius {} mm too coarse for the 7.5 mm gap below the zone",
+            self.grain_radius_m * 1e3
+        );
+        ensure!(
+            pos(self.settle_s) && pos(self.expansion_s) && self.frames >= 1 && self.samples >= 1,
+            "settle/expansion times, frames and samples must be positive"
+        );
+        ensure!(self.surcharge_rows >= 1, "at least one surcharge row");
+        Ok(())
+    }
+}
+
+/// The sand grains' material: E = 1e7 Pa (soft, as the DEM benchmark's,
+/// for a long time step), ν = 0.3, the paper's grain density.
+pub fn sand() -> Material {
+    Material {
+        youngs_modulus_pa: 1.0e7,
+        poisson_ratio: 0.3,
+        density_kg_m3: GRAIN_DENSITY_KG_M3,
+    }
+}
+
+/// The skin as a contact material: E = 3μ of the skin law, nearly
+/// incompressible, tissue density.
+pub fn skin_material() -> Material {
+    Material {
+        youngs_modulus_pa: 3.0 * default_skin().shear_modulus_kpa() * 1e3,
+        poisson_ratio: 0.49,
+        density_kg_m3: SkinSpec::TISSUE_DENSITY_KG_M3,
+    }
+}
+
+/// Wall indices in [`Params::walls`].
+pub mod wall {
+    /// The floor (y = −below).
+    pub const FLOOR: usize = 0;
+    /// The box side at x = −w/2.
+    pub const SIDE_NEG_X: usize = 1;
+    /// The box side at x = +w/2.
+    pub const SIDE_POS_X: usize = 2;
+    /// The body's plane behind the zone (z = 0).
+    pub const BACK: usize = 3;
+    /// The far end ahead of the front face.
+    pub const FAR: usize = 4;
+}
+
+/// A built scenario, ready to settle.
+#[derive(Debug)]
+pub struct Bed {
+    /// What it was built from.
+    pub spec: ScenarioSpec,
+    /// DEM parameters (walls as in [`wall`]).
+    pub params: Params,
+    /// Particles and time.
+    pub state: State,
+    /// The skin, its contact law and the front face.
+    pub coupling: Coupling<Yeoh>,
+    /// Grains of the slab (the first ones in `state.particles`).
+    pub slab_grains: usize,
+    /// Heavy surcharge grains (the last ones).
+    pub surcharge_grains: usize,
+    /// Area the surcharge acts on: box width × slab length (m²).
+    pub top_area_m2: f64,
+}
+
+impl Bed {
+    /// Sum of the grains' buoyant weights (N), the surcharge's included.
+    pub fn buoyant_weight_n(&self) -> f64 {
+        let g = self.params.gravity_m_s2.norm() * self.params.buoyancy_factor();
+        self.state.particles.mass_kg.iter().sum::<f64>() * g
+    }
+}
+
+/// Builds the bed of `spec`: the skin at rest holding its fluid volume,
+/// grains on a
+/// jittered lattice round it filled bottom-up, then the surcharge rows.
+pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
+    spec.validate()?;
+    let r = spec.grain_radius_m;
+    let dt = spec.dt_s();
+    let mat = sand();
+    let rough = ContactSpec {
+        friction: FRICTION,
+        ..ContactSpec::default()
+    };
+    let smooth = ContactSpec {
+        friction: 0.0,
+        ..rough
+    };
+    let mut params = Params::new(&mat, &rough, dt)?;
+    params.gravity_m_s2 = Vector3::new(0.0, -GRAVITY_M_S2, 0.0);
+    params.fluid_density_kg_m3 = WATER_DENSITY_KG_M3;
+    params.skin_m = 0.2 * r;
+    let (w, zl) = (spec.box_width_m, spec.slab_length_m());
+    let planes = [
+        (Vector3::new(0.0, -spec.below_m, 0.0), Vector3::y(), &smooth),
+        (Vector3::new(-0.5 * w, 0.0, 0.0), Vector3::x(), &rough),
+        (Vector3::new(0.5 * w, 0.0, 0.0), -Vector3::x(), &rough),
+        (Vector3::zeros(), Vector3::z(), &smooth),
+        (Vector3::new(0.0, 0.0, zl), -Vector3::z(), &smooth),
+    ];
+    for (point, normal, s) in planes {
+        params
+            .walls
+            .push(Wall::plane(point, normal, &mat, &mat, s)?);
+    }
+
+    let (around, along) = spec.skin_mesh;
+    let mut skin = Skin::new(
+        default_skin(),
+        &SkinSpec::paper(around, along),
+        Ends::Clamped,
+    )?;
+    skin.damping_per_s = 100.0;
+    // The zone at rest (D0) holds its fluid volume while the bed settles
+    // (the coelom is closed): the sand raises the pressure instead of
+    // crushing the soft skin (held at a pressure of γ'·h instead, the zone
+    // was dented to 17.1 mm at h = 40 mm; at 2γ'·h it swelled to 20.8 mm).
+    skin.volume_control = Some(VolumeControl {
+        target_volume_m3: skin.enclosed_volume_m3(),
+        bulk_modulus_pa: FLUID_BULK_MODULUS_PA,
+    });
+    let zone_m = skin.spec.length_m;
+    let skin_model = ContactModel::hertz_mindlin(&mat, &skin_material(), &rough)?;
+    let mut coupling = Coupling::new(skin, skin_model, dt)?;
+    // The face spans the clamped end ring's outer radius.
+    let face_radius = coupling.skin.spec.mid_radius_m + 0.5 * coupling.skin.spec.thickness_m;
+    let face_model = ContactModel::hertz_mindlin(&mat, &mat, &rough)?;
+    coupling.face = FrontFace::new(
+        Vector3::new(0.0, 0.0, zone_m),
+        Vector3::z(),
+        face_radius,
+        face_model,
+        dt,
+    );
+    let keep_out = 0.5 * coupling.skin.outer_diameter_at_mid_length_m() + 1.1 * r;
+
+    // Grain count for the slab at the assumed packing.
+    let zone_volume = std::f64::consts::PI * keep_out.powi(2) * zone_m;
+    let slab_volume = w * (spec.below_m + spec.above_m) * zl - zone_volume;
+    let grain_volume = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+    let slab_grains = (spec.packing * slab_volume / grain_volume).round() as usize;
+
+    let pitch = 2.1 * r;
+    let jitter = 0.04 * r;
+    let mut rng = rand::rngs::StdRng::seed_from_u64(spec.seed);
+    let per_axis = |len: f64| ((len - pitch) / pitch).floor() as usize + 1;
+    let (nx, nz) = (per_axis(w), per_axis(zl));
+    let x0 = -0.5 * w + 0.5 * (w - (nx - 1) as f64 * pitch);
+    let z0 = 0.5 * (zl - (nz - 1) as f64 * pitch);
+    let mut positions = Vec::with_capacity(slab_grains + spec.surcharge_rows * nx * nz);
+    let mut row = 0usize;
+    let mut surcharge_start = None;
+    while surcharge_start.is_none_or(|k0| row < k0 + spec.surcharge_rows) {
+        let y = -spec.below_m + 0.5 * pitch + row as f64 * pitch;
+        for j in 0..nz {
+            for i in 0..nx {
+                if surcharge_start.is_none() && positions.len() == slab_grains {
+                    break;
+                }
+                let mut jit = || rng.random_range(-jitter..=jitter);
+                let p = Vector3::new(
+                    x0 + i as f64 * pitch + jit(),
+                    y + jit(),
+                    z0 + j as f64 * pitch + jit(),
+                );
+                let by_zone = p.z < zone_m + r + 0.1 * r && p.x.hypot(p.y) < keep_out;
+                if !by_zone {
+                    positions.push(p);
+                }
+            }
+        }
+        if surcharge_start.is_none() && positions.len() >= slab_grains {
+            surcharge_start = Some(row + 1);
+        }
+        row += 1;
+    }
+    let surcharge_grains = positions.len() - slab_grains;
+    ensure!(surcharge_grains > 0, "no surcharge grains placed");
+    let top_area_m2 = w * zl;
+    // Each heavy grain's buoyant weight: its share of σ·A.
+    let g_eff = GRAVITY_M_S2 * params.buoyancy_factor();
+    let heavy_mass = spec.surcharge_pa() * top_area_m2 / (surcharge_grains as f64 * g_eff);
+    let heavy_density = heavy_mass / grain_volume;
+    let mut particles = Particles::new();
+    for (k, p) in positions.into_iter().enumerate() {
+        let rho = if k < slab_grains {
+            GRAIN_DENSITY_KG_M3
+        } else {
+            heavy_density
+        };
+        particles.push(p, Vector3::zeros(), r, rho)?;
+    }
+    Ok(Bed {
+        spec: spec.clone(),
+        params,
+        state: State::new(particles),
+        coupling,
+        slab_grains,
+        surcharge_grains,
+        top_area_m2,
+    })
+}

@@ -1,0 +1,60 @@
+//! The paper's scenario on a tiny, coarse bed (r = 2.5 mm, a few hundred
+//! grains): the settled bed carries its buoyant weight and the surcharge,
+//! the sand presses on the resting zone at the overburden's order, and the
+//! sand pressure rises as the zone expands to 25 mm.
+
+use host_sim::simulate::{simulate, Options, ScenarioSpec};
+
+#[test]
+fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone() {
+    let spec = ScenarioSpec {
+        settle_s: 0.3,
+        expansion_s: 0.08,
+        frames: 2,
+        samples: 20,
+        ..ScenarioSpec::quick(40e-3, 2.5e-3)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let report = simulate(&Options {
+        spec: spec.clone(),
+        out: Some(dir.path().to_path_buf()),
+        progress: false,
+    })
+    .unwrap();
+    print!("{}", report.text());
+    let st = report.settled;
+    let n = report.grains.0 + report.grains.1;
+    assert!(n > 200 && n < 800, "{n} grains");
+    // At rest, floor, side walls and skin carry the buoyant weight,
+    // the surcharge layer's included.
+    let err = st.support_n / st.buoyant_weight_n - 1.0;
+    assert!(err.abs() < 0.05, "support off by {err}");
+    let surcharge_n = report.surcharge_pa * spec.box_width_m * spec.slab_length_m();
+    assert!(st.floor_force_n > 0.5 * surcharge_n);
+    let last = report.last().unwrap();
+    assert!(last.outer_diameter_m >= 25e-3 && last.outer_diameter_m < 25.3e-3);
+    // The sand on the resting zone: the overburden's order (γ'h = 446 Pa).
+    let sigma_v = spec.vertical_stress_at_axis_pa();
+    let p_e0 = st.sample.sand_pressure_pa;
+    assert!(p_e0 > 0.2 * sigma_v && p_e0 < 3.0 * sigma_v, "{p_e0}");
+    // Pushing the sand back costs more than holding it.
+    assert!(
+        last.sand_pressure_pa > 1.3 * p_e0,
+        "{}",
+        last.sand_pressure_pa
+    );
+    assert!(last.internal_pressure_pa > st.sample.internal_pressure_pa);
+    assert!(last.max_von_mises_pa > 0.0);
+    for f in [
+        "samples.csv",
+        "pressures.svg",
+        "summary.txt",
+        "grains.vtk.series",
+        "vtk/grains_0002.vtk",
+        "vtk/skin_0002.vtk",
+    ] {
+        assert!(dir.path().join(f).exists(), "{f}");
+    }
+    let csv = std::fs::read_to_string(dir.path().join("samples.csv")).unwrap();
+    assert_eq!(csv.lines().count(), report.samples.len() + 1);
+}
