@@ -353,6 +353,32 @@ impl Plant {
         Ok(())
     }
 
+    /// Volume (mL) the open valve vents from an open line over one
+    /// sub-step: `g·p_line·dt` with `p_line` taken at the END of the
+    /// sub-step (implicit Euler). The line pressure falls as the valve
+    /// vents, through the head's stiffness and, with `line_loss`, through
+    /// the flow itself (R·Q, Q = −vent/dt); taken explicitly the vent
+    /// overshoots and diverges once g·R > 1. p_line is close to affine in
+    /// the vented volume over one sub-step, so one probe of the model (on a
+    /// copy of its state) gives the slope and the implicit vent directly.
+    fn vent_open_line_ml(&self, t1_ms: u32, displaced: f64, g: f64, dt_s: f64) -> f64 {
+        let t_s = f64::from(t1_ms) / 1000.0;
+        let upstream = displaced - self.vented_ml;
+        let line_after = |vent_ml: f64| {
+            let mut run = self.run.clone();
+            let p = self.model.step(&mut run, t_s, upstream - vent_ml);
+            self.bias.line_kpa(p.sensor_kpa)
+        };
+        let line_kpa = line_after(0.0);
+        let explicit_ml = g * line_kpa * dt_s;
+        if explicit_ml == 0.0 || !explicit_ml.is_finite() {
+            return 0.0;
+        }
+        // kPa lost per mL vented; never negative (venting cannot raise it).
+        let stiffness = ((line_kpa - line_after(explicit_ml)) / explicit_ml).max(0.0);
+        explicit_ml / (1.0 + g * dt_s * stiffness)
+    }
+
     /// One sub-step `[t0_ms, t1_ms)`.
     fn substep(&mut self, t0_ms: u32, t1_ms: u32) {
         let dt_s = f64::from(t1_ms - t0_ms) / 1000.0;
@@ -372,7 +398,7 @@ impl Plant {
                     let after = settled + (stored - settled) * (-g * dt_s / c).exp();
                     stored - after
                 }
-                None => g * self.truth.line_kpa * dt_s,
+                None => self.vent_open_line_ml(t1_ms, displaced, g, dt_s),
             };
         }
         let upstream_ml = displaced - self.vented_ml;
