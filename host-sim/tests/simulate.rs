@@ -8,7 +8,7 @@ use host_sim::simulate::{simulate, Options, ScenarioSpec};
 #[test]
 fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone() {
     let spec = ScenarioSpec {
-        settle_s: 0.3,
+        settle_s: 0.4,
         expansion_s: 0.08,
         frames: 2,
         samples: 20,
@@ -25,17 +25,20 @@ fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone(
     let st = report.settled;
     let n = report.grains.0 + report.grains.1;
     assert!(n > 200 && n < 800, "{n} grains");
-    // At rest, floor, side walls and skin carry the buoyant weight,
-    // the surcharge layer's included.
+    // At rest, floor, side walls and skin carry the buoyant weight, the
+    // surcharge layer's included (means over the last quarter of settling:
+    // the skin rings, single steps scatter by tens of per cent). Measured
+    // −4.8 %: the front face's friction, which FrontFace does not report,
+    // carries ≈ 3 % (−1.6 % with a frictionless face), the rest is motion.
     let err = st.support_n / st.buoyant_weight_n - 1.0;
-    assert!(err.abs() < 0.05, "support off by {err}");
+    assert!(err < 0.0 && err > -0.05, "support off by {err}");
     let surcharge_n = report.surcharge_pa * spec.box_width_m * spec.slab_length_m();
     assert!(st.floor_force_n > 0.5 * surcharge_n);
     let last = report.last().unwrap();
     assert!(last.outer_diameter_m >= 25e-3 && last.outer_diameter_m < 25.3e-3);
     // The sand on the resting zone: the overburden's order (γ'h = 446 Pa).
     let sigma_v = spec.vertical_stress_at_axis_pa();
-    let p_e0 = st.sample.sand_pressure_pa;
+    let p_e0 = st.sand_pressure_pa;
     assert!(p_e0 > 0.2 * sigma_v && p_e0 < 3.0 * sigma_v, "{p_e0}");
     // Pushing the sand back costs more than holding it.
     assert!(

@@ -47,10 +47,10 @@ impl Report {
         self.samples.last()
     }
 
-    /// Drop of the front-face pressure from the settled state to the end
+    /// Drop of the front-face pressure from the settled mean to the end
     /// (fraction of the settled value).
     pub fn face_pressure_drop(&self) -> Option<f64> {
-        let p0 = self.settled.sample.face_pressure_pa?;
+        let p0 = self.settled.face_pressure_pa;
         let p1 = self.last()?.face_pressure_pa?;
         (p0 > 0.0).then(|| 1.0 - p1 / p0)
     }
@@ -71,15 +71,15 @@ impl Report {
         );
         let _ = writeln!(
             s,
-            "settled: support {:.4} N vs buoyant weight {:.4} N (floor {:.4} N), slab top {:.1} mm above the axis, D {:.2} mm, p_i {:.3} kPa, p_e {:.3} kPa, p_h {:.3} kPa; kinetic energy {:.2e} J",
+            "settled (means over its last quarter): support {:.4} N vs buoyant weight {:.4} N (floor {:.4} N), p_e {:.3} kPa, p_h {:.3} kPa; at its end: slab top {:.1} mm above the axis, D {:.2} mm, p_i {:.3} kPa, kinetic energy {:.2e} J",
             st.support_n,
             st.buoyant_weight_n,
             st.floor_force_n,
+            st.sand_pressure_pa * 1e-3,
+            st.face_pressure_pa * 1e-3,
             st.slab_top_m * 1e3,
             st.sample.outer_diameter_m * 1e3,
             st.sample.internal_pressure_pa * 1e-3,
-            st.sample.sand_pressure_pa * 1e-3,
-            st.sample.face_pressure_pa.unwrap_or(f64::NAN) * 1e-3,
             st.kinetic_energy_j
         );
         if let Some(l) = self.last() {

@@ -15,16 +15,22 @@ const SETTLE_DRAG_S: f64 = 0.02;
 /// The bed at the end of settling.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settled {
-    /// Force the grains put on the floor, upwards positive (N).
+    /// Force the grains put on the floor, upwards positive (N), averaged
+    /// over the last quarter of settling (the skin rings, so single steps
+    /// scatter).
     pub floor_force_n: f64,
     /// Vertical support from everything (floor, side-wall friction, skin)
-    /// (N): equals the buoyant weight at rest.
+    /// (N), averaged likewise: equals the buoyant weight at rest.
     pub support_n: f64,
+    /// Sand pressure on the skin p_e (Pa), averaged likewise.
+    pub sand_pressure_pa: f64,
+    /// Sand pressure on the front face p_h (Pa), averaged likewise.
+    pub face_pressure_pa: f64,
     /// Buoyant weight of all grains, the surcharge's included (N).
     pub buoyant_weight_n: f64,
     /// Highest grain top of the slab (m above the axis).
     pub slab_top_m: f64,
-    /// The state then: D, p_i, p_e, p_h.
+    /// The state at the last step: D, p_i, p_e, p_h.
     pub sample: Sample,
     /// Kinetic energy left (J).
     pub kinetic_energy_j: f64,
@@ -48,6 +54,8 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
     // bouncing on the soft bed (contact damping alone left it ≈ 9 % off
     // its weight after 0.2 s).
     let keep = (-bed.params.dt_s / SETTLE_DRAG_S).exp();
+    let from = steps - steps / 4;
+    let mut sums = [0.0f64; 4];
     for k in 0..steps {
         step(&bed.params, &mut bed.state, &mut bed.coupling).context("settling the bed")?;
         let p = &mut bed.state.particles;
@@ -56,18 +64,33 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
         if let Some(e) = bed.coupling.error() {
             return Err(e.clone()).context("skin while settling");
         }
+        if k >= from {
+            let c = &bed.coupling;
+            let face = c.face.as_ref().map_or(0.0, |f| f.pressure_pa());
+            let area = c.skin.outer_area_m2()?;
+            let now = [
+                -bed.state.wall_forces_n()[wall::FLOOR].y,
+                support_n(bed),
+                c.last_exchange().normal_force_n / area,
+                face,
+            ];
+            sums.iter_mut().zip(now).for_each(|(s, v)| *s += v);
+        }
         if k % 100 == 0 {
             bar.set_position(k);
         }
     }
     bar.set_position(steps);
+    let mean = sums.map(|s| s / (steps - from).max(1) as f64);
     let p = &bed.state.particles;
     let slab_top_m = (0..bed.slab_grains)
         .map(|i| p.position_m[i].y + p.radius_m[i])
         .fold(f64::NEG_INFINITY, f64::max);
     Ok(Settled {
-        floor_force_n: -bed.state.wall_forces_n()[wall::FLOOR].y,
-        support_n: support_n(bed),
+        floor_force_n: mean[0],
+        support_n: mean[1],
+        sand_pressure_pa: mean[2],
+        face_pressure_pa: mean[3],
         buoyant_weight_n: bed.buoyant_weight_n(),
         slab_top_m,
         sample: bed.coupling.sample()?,
