@@ -25,6 +25,18 @@ pub enum State {
     Fault,
 }
 
+impl State {
+    /// Every state, in declaration order (plots, codecs and tests walk it).
+    pub const ALL: [State; 6] = [
+        State::Idle,
+        State::Expand,
+        State::Hold,
+        State::Shrink,
+        State::Advance,
+        State::Fault,
+    ];
+}
+
 /// Why the controller entered [`State::Fault`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -51,6 +63,23 @@ pub enum Fault {
     DiameterMismatch,
     /// Control steps arrived late (loop overrun); the watchdog is starved.
     ControlOverrun,
+}
+
+impl Fault {
+    /// Every fault kind, in declaration order (codecs and tests walk it).
+    pub const ALL: [Fault; 11] = [
+        Fault::OverPressure,
+        Fault::SensorBus,
+        Fault::SensorOutOfRange,
+        Fault::SensorFrozen,
+        Fault::SensorStale,
+        Fault::EndStop,
+        Fault::PumpStall,
+        Fault::Leak,
+        Fault::VolumeLimit,
+        Fault::DiameterMismatch,
+        Fault::ControlOverrun,
+    ];
 }
 
 /// A command from the host link (or the board's button).
@@ -186,4 +215,45 @@ pub struct Outputs {
     pub feed_watchdog: bool,
     /// Result of `Inputs::command`, if one was given.
     pub command_result: Option<Result<(), CommandError>>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn all_lists_every_state_once_in_declaration_order() {
+        for (i, s) in State::ALL.iter().enumerate() {
+            // Exhaustive: a new state fails to compile here until listed.
+            let k = match s {
+                State::Idle => 0,
+                State::Expand => 1,
+                State::Hold => 2,
+                State::Shrink => 3,
+                State::Advance => 4,
+                State::Fault => 5,
+            };
+            assert_eq!(k, i);
+        }
+    }
+
+    #[test]
+    fn all_lists_every_fault_once_in_declaration_order() {
+        for (i, f) in Fault::ALL.iter().enumerate() {
+            let k = match f {
+                Fault::OverPressure => 0,
+                Fault::SensorBus => 1,
+                Fault::SensorOutOfRange => 2,
+                Fault::SensorFrozen => 3,
+                Fault::SensorStale => 4,
+                Fault::EndStop => 5,
+                Fault::PumpStall => 6,
+                Fault::Leak => 7,
+                Fault::VolumeLimit => 8,
+                Fault::DiameterMismatch => 9,
+                Fault::ControlOverrun => 10,
+            };
+            assert_eq!(k, i);
+        }
+    }
 }

@@ -9,16 +9,6 @@ use urechis::controller::State;
 
 use super::run::Trace;
 
-/// Every state, bottom to top of the state panel.
-const STATES: [State; 6] = [
-    State::Idle,
-    State::Expand,
-    State::Hold,
-    State::Shrink,
-    State::Advance,
-    State::Fault,
-];
-
 /// Most points drawn per series (longer runs are thinned evenly).
 const MAX_POINTS: usize = 4000;
 
@@ -36,7 +26,7 @@ fn plot_err(e: impl std::fmt::Display) -> anyhow::Error {
 }
 
 fn level(state: State) -> f64 {
-    STATES.iter().position(|s| *s == state).unwrap_or(0) as f64
+    State::ALL.iter().position(|s| *s == state).unwrap_or(0) as f64
 }
 
 /// Renders the plot as SVG text.
@@ -184,16 +174,16 @@ pub fn render_svg(trace: &Trace) -> Result<String> {
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d(0.0..t_end, -0.5..(STATES.len() as f64 - 0.5))
+            .build_cartesian_2d(0.0..t_end, -0.5..(State::ALL.len() as f64 - 0.5))
             .map_err(plot_err)?;
         chart
             .configure_mesh()
             .x_desc("time (s)")
-            .y_labels(STATES.len())
+            .y_labels(State::ALL.len())
             .y_label_formatter(&|y| {
                 let i = y.round();
                 if (y - i).abs() < 1e-6 && i >= 0.0 {
-                    STATES
+                    State::ALL
                         .get(i as usize)
                         .map(|s| format!("{s:?}"))
                         .unwrap_or_default()

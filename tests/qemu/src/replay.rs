@@ -63,38 +63,13 @@ const OUT_RESULT: u8 = 1 << 5;
 const OUT_NEW_RATE: u8 = 1 << 6;
 const OUT_NEW_CYCLE: u8 = 1 << 7;
 
-/// Every state, by code.
-const STATES: [State; 6] = [
-    State::Idle,
-    State::Expand,
-    State::Hold,
-    State::Shrink,
-    State::Advance,
-    State::Fault,
-];
-
-/// Every fault, by code − 1.
-const FAULTS: [Fault; 11] = [
-    Fault::OverPressure,
-    Fault::SensorBus,
-    Fault::SensorOutOfRange,
-    Fault::SensorFrozen,
-    Fault::SensorStale,
-    Fault::EndStop,
-    Fault::PumpStall,
-    Fault::Leak,
-    Fault::VolumeLimit,
-    Fault::DiameterMismatch,
-    Fault::ControlOverrun,
-];
-
 fn state_code(state: State) -> u8 {
-    STATES.iter().position(|s| *s == state).unwrap_or(0) as u8
+    State::ALL.iter().position(|s| *s == state).unwrap_or(0) as u8
 }
 
 fn fault_code(fault: Option<Fault>) -> u8 {
     fault.map_or(0, |f| {
-        FAULTS
+        Fault::ALL
             .iter()
             .position(|x| *x == f)
             .map_or(0, |i| i as u8 + 1)
