@@ -29,6 +29,42 @@ fn level(state: State) -> f64 {
     State::ALL.iter().position(|s| *s == state).unwrap_or(0) as f64
 }
 
+/// One time-series panel: labelled lines over `0..t_end` with a legend.
+fn line_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    t_end: f64,
+    y_range: std::ops::Range<f64>,
+    y_desc: &str,
+    series: &[Series<'_>],
+) -> Result<()> {
+    let mut chart = ChartBuilder::on(area)
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..t_end, y_range)
+        .map_err(plot_err)?;
+    chart
+        .configure_mesh()
+        .y_desc(y_desc)
+        .draw()
+        .map_err(plot_err)?;
+    for &(label, pts, colour) in series {
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(1)))
+            .map_err(plot_err)?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(plot_err)?;
+    Ok(())
+}
+
 /// Renders the plot as SVG text.
 pub fn render_svg(trace: &Trace) -> Result<String> {
     let stride = trace.steps.len().div_ceil(MAX_POINTS).max(1);
@@ -102,73 +138,27 @@ pub fn render_svg(trace: &Trace) -> Result<String> {
             .map_err(plot_err)?;
         let panels = root.split_evenly((3, 1));
 
-        let mut chart = ChartBuilder::on(&panels[0])
-            .margin(10)
-            .x_label_area_size(30)
-            .y_label_area_size(60)
-            .build_cartesian_2d(0.0..t_end, p_range)
-            .map_err(plot_err)?;
-        chart
-            .configure_mesh()
-            .y_desc("pressure (kPa)")
-            .draw()
-            .map_err(plot_err)?;
-        let series: [Series; 2] = [
-            ("reading (controller)", &reading, READING),
-            ("true line pressure", &line, TRUE_LINE),
-        ];
-        for (label, pts, colour) in series {
-            chart
-                .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(1)))
-                .map_err(plot_err)?
-                .label(label)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
-        }
-        chart
-            .draw_series(LineSeries::new(
-                [(0.0, limit), (t_end, limit)],
-                LIMIT.stroke_width(1),
-            ))
-            .map_err(plot_err)?
-            .label("max_pressure_kpa")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], LIMIT));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(plot_err)?;
-
-        let mut chart = ChartBuilder::on(&panels[1])
-            .margin(10)
-            .x_label_area_size(30)
-            .y_label_area_size(60)
-            .build_cartesian_2d(0.0..t_end, v_range)
-            .map_err(plot_err)?;
-        chart
-            .configure_mesh()
-            .y_desc("volume (mL)")
-            .draw()
-            .map_err(plot_err)?;
-        let series: [Series; 2] = [
-            ("pump (reported)", &pump, PUMP),
-            ("in the head (true)", &head, HEAD),
-        ];
-        for (label, pts, colour) in series {
-            chart
-                .draw_series(LineSeries::new(pts.iter().copied(), colour.stroke_width(1)))
-                .map_err(plot_err)?
-                .label(label)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
-        }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(plot_err)?;
+        line_panel(
+            &panels[0],
+            t_end,
+            p_range,
+            "pressure (kPa)",
+            &[
+                ("reading (controller)", &reading, READING),
+                ("true line pressure", &line, TRUE_LINE),
+                ("max_pressure_kpa", &[(0.0, limit), (t_end, limit)], LIMIT),
+            ],
+        )?;
+        line_panel(
+            &panels[1],
+            t_end,
+            v_range,
+            "volume (mL)",
+            &[
+                ("pump (reported)", &pump, PUMP),
+                ("in the head (true)", &head, HEAD),
+            ],
+        )?;
 
         let mut chart = ChartBuilder::on(&panels[2])
             .margin(10)
