@@ -171,7 +171,10 @@ fn plot_err<E: std::fmt::Display>(e: E) -> anyhow::Error {
 }
 
 fn step_table(_out_dir: &Path, report: &mut DemoReport) -> Result<()> {
-    let fresh = GeneratedTable::sample(&TableSpec::default(), &crate::physics_model())?;
+    let fresh = GeneratedTable::sample(
+        &TableSpec::default(),
+        &*crate::physics_model(&crate::repo_root())?,
+    )?;
     let compiled = urechis::table::generated::TABLE;
     compiled
         .verify()

@@ -6,7 +6,8 @@
 //! - [`tables`]: generates the firmware's pressure→diameter table;
 //! - [`skin`]: hyperelastic skin laws, their fit to tensile tests, and the
 //!   inflation of the skin tube;
-//! - [`sand`]: the parametric sand law p_e(D, h);
+//! - [`sand`]: the sand laws p_e(D, h): parametric, and from the stored
+//!   FEM–DEM solver results (`host-sim solver-sand` regenerates them);
 //! - [`pressure_model`]: p_i = p_membrane + p_e, the table's physics;
 //! - [`experiment`]: the experiment folder (rig.toml + CSV runs), read and
 //!   written by every tool;
@@ -44,7 +45,20 @@ pub mod tables;
 pub mod telemetry;
 pub mod workbench;
 
-/// The p_i(D, h) model the firmware tables are generated from.
-pub fn physics_model() -> pressure_model::SkinSandModel {
-    pressure_model::SkinSandModel::paper_default()
+/// The p_i(D, h) model the firmware tables are generated from: the skin
+/// tube in the sand [`tables::TABLE_SAND`] names (the FEM–DEM solver's is
+/// read from the data file under the repository root `repo_root`,
+/// [`sand::solver::DATA_PATH`]).
+pub fn physics_model(
+    repo_root: &std::path::Path,
+) -> anyhow::Result<Box<dyn tables::PressureModel>> {
+    tables::TABLE_SAND.model(repo_root)
+}
+
+/// The repository root this crate was built in (the parent of host-sim).
+pub fn repo_root() -> std::path::PathBuf {
+    let crate_dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    crate_dir
+        .parent()
+        .map_or_else(|| crate_dir.join(".."), std::path::Path::to_path_buf)
 }

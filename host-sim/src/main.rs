@@ -27,7 +27,8 @@ enum Command {
         #[arg(long, default_value = "out/demo")]
         out: PathBuf,
     },
-    /// Regenerate the firmware's pressure→diameter table (src/table/generated.rs).
+    /// Regenerate the firmware's pressure→diameter table (src/table/generated.rs)
+    /// from the skin model and the sand of `tables::TABLE_SAND`.
     Tables {
         /// Repository root (where the firmware's Cargo.toml is).
         #[arg(long, default_value_os_t = default_repo_root())]
@@ -62,6 +63,20 @@ enum Command {
         /// Shorter settling and expansion (about half the steps).
         #[arg(long)]
         quick: bool,
+    },
+    /// Regenerate the stored FEM–DEM solver sand p_e(D, h) the tables use:
+    /// runs `simulate` at each depth (grain radius 1.5 mm, no VTK), bins p_e
+    /// over D and writes host-sim/data/sand/solver-pe.csv.
+    SolverSand {
+        /// The shorter solver case (`simulate --quick`).
+        #[arg(long)]
+        quick: bool,
+        /// Data file to write; default: the repository's.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Depths of the zone's axis (mm), comma-separated.
+        #[arg(long = "depths-mm", value_delimiter = ',', default_values_t = host_sim::sand::regenerate::DEPTHS_MM)]
+        depths_mm: Vec<f64>,
     },
     /// Benchmarks (`bench dem`: the DEM throughput problem of shared/bench).
     Bench {
@@ -159,7 +174,7 @@ enum BenchCommand {
 }
 
 fn default_repo_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+    host_sim::repo_root()
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -175,8 +190,8 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
         Command::Tables { repo, check } => {
-            let (path, outcome) =
-                host_sim::tables::regenerate(&repo, &host_sim::physics_model(), check)?;
+            let model = host_sim::physics_model(&repo)?;
+            let (path, outcome) = host_sim::tables::regenerate(&repo, &*model, check)?;
             println!("{}: {:?}", path.display(), outcome);
         }
         Command::FitSkin { file, out } => {
@@ -211,6 +226,32 @@ fn run(cli: Cli) -> Result<()> {
                 progress: true,
             })?;
             print!("{}", report.text());
+            println!("wrote {}", out.display());
+        }
+        Command::SolverSand {
+            quick,
+            out,
+            depths_mm,
+        } => {
+            use host_sim::sand::regenerate::{regenerate, RegenerateOptions};
+            let out =
+                out.unwrap_or_else(|| default_repo_root().join(host_sim::sand::solver::DATA_PATH));
+            let opts = RegenerateOptions {
+                depths_mm,
+                quick,
+                progress: true,
+            };
+            regenerate(&opts, &out, |run| {
+                println!(
+                    "h = {} mm: final p_e {:.3} kPa at D {:.2} mm, {} bins from D {:.2} mm, wall {:.1} s",
+                    run.depth_mm,
+                    run.final_p_e_kpa,
+                    run.final_diameter_mm,
+                    run.bins.len(),
+                    run.settled_diameter_mm,
+                    run.wall_s
+                );
+            })?;
             println!("wrote {}", out.display());
         }
         Command::Bench {

@@ -1,35 +1,57 @@
 //! The project's p_i(D, h): the skin tube's own pressure plus the sand's,
 //! p_i = p_membrane(D) + p_e(D, h) (exact for an incompressible wall; see
-//! [`crate::skin::membrane`]). This is what the firmware tables sample.
+//! [`crate::skin::membrane`]). The firmware tables sample it with the
+//! FEM–DEM solver's sand ([`SkinSandModel::paper_solver`]); the demo and the
+//! skin tests use the parametric sand ([`SkinSandModel::paper_default`]).
+
+use std::path::Path;
 
 use anyhow::Result;
 
-use crate::sand::{ParametricSand, SandLaw};
+use crate::sand::{ParametricSand, SandLaw, SolverSand};
 use crate::skin::membrane::{Ends, InflationState, Tube};
 use crate::skin::Yeoh;
 use crate::tables::PressureModel;
 
-/// Skin tube plus sand law.
+/// Skin tube plus a sand law.
 #[derive(Clone, Debug)]
-pub struct SkinSandModel {
+pub struct SkinSandModel<S = ParametricSand> {
     /// The skin tube of the expansion zone.
     pub tube: Tube<Yeoh>,
     /// The sand around it.
-    pub sand: ParametricSand,
+    pub sand: S,
 }
 
-impl SkinSandModel {
-    /// The default ([`TubeGeometry::PAPER`](crate::skin::membrane::TubeGeometry::PAPER)): the paper's zone (D0 18.7 mm, 1.75 mm skin, 20 mm) of
-    /// the default Yeoh skin with closed ends (the zone is part of a
-    /// closed, pressurised body, so its wall carries the pressure on the
-    /// cross-section), in the balloon-calibrated sand.
+/// The paper's zone (D0 18.7 mm, 1.75 mm skin, 20 mm,
+/// [`TubeGeometry::PAPER`](crate::skin::membrane::TubeGeometry::PAPER)) of
+/// the default Yeoh skin with closed ends: the zone is part of a closed,
+/// pressurised body, so its wall carries the pressure on the cross-section.
+fn paper_tube() -> Tube<Yeoh> {
+    Tube::paper(crate::skin::default_skin(), Ends::Closed)
+}
+
+impl SkinSandModel<ParametricSand> {
+    /// The paper's zone in the balloon-calibrated parametric sand.
     pub fn paper_default() -> Self {
         Self {
-            tube: Tube::paper(crate::skin::default_skin(), Ends::Closed),
+            tube: paper_tube(),
             sand: ParametricSand::calibrated_to_balloon(),
         }
     }
+}
 
+impl SkinSandModel<SolverSand> {
+    /// The paper's zone in the FEM–DEM solver's sand, read from the data
+    /// file stored under the repository root `repo_root`.
+    pub fn paper_solver(repo_root: &Path) -> Result<Self> {
+        Ok(Self {
+            tube: paper_tube(),
+            sand: SolverSand::from_repo(repo_root)?,
+        })
+    }
+}
+
+impl<S> SkinSandModel<S> {
     /// The skin's pressure p_membrane (kPa) at outer diameter `diameter_mm`.
     pub fn membrane_kpa(&self, diameter_mm: f64) -> Result<f64> {
         Ok(self.tube.pressure_kpa(diameter_mm)?)
@@ -41,7 +63,7 @@ impl SkinSandModel {
     }
 }
 
-impl PressureModel for SkinSandModel {
+impl<S: SandLaw> PressureModel for SkinSandModel<S> {
     fn internal_pressure_kpa(&self, diameter_mm: f64, depth_mm: f64) -> f64 {
         // NaN for a diameter the tube cannot reach; the table generator's
         // verification refuses non-finite values.
@@ -52,22 +74,17 @@ impl PressureModel for SkinSandModel {
     fn provenance(&self) -> String {
         let y = &self.tube.skin;
         let g = &self.tube.geometry;
-        let s = &self.sand.params;
         format!(
             "host-sim skin + sand (issue 3): Yeoh C10={:.4} C20={:.5} C30={:.6} kPa \
              (fit to data/skin/unicinctus_circumferential.csv), {} thick tube \
-             D0={} mm wall={} mm; parametric sand K0={:.3} N={:.3} dDc={:.3} mm, \
-             gamma'={:.5} kPa/mm (N fit to the paper's balloon table)",
+             D0={} mm wall={} mm; {}",
             y.c10_kpa,
             y.c20_kpa,
             y.c30_kpa,
             self.tube.ends.label(),
             g.outer_diameter_mm,
             g.wall_thickness_mm,
-            s.at_rest_coefficient,
-            s.limit_coefficient,
-            s.characteristic_diameter_increase_mm,
-            s.buoyant_unit_weight_kpa_per_mm(),
+            self.sand.describe(),
         )
     }
 
@@ -92,5 +109,22 @@ mod tests {
         // A diameter that closes the bore is NaN, not a panic.
         assert!(m.internal_pressure_kpa(5.0, 0.0).is_nan());
         assert!(!m.is_placeholder());
+    }
+
+    #[test]
+    fn solver_model_is_membrane_plus_the_stored_sand() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let m = SkinSandModel::paper_solver(&root).unwrap();
+        for (d, h) in [(18.7, 0.0), (21.0, 40.0), (25.0, 100.0), (26.2, 200.0)] {
+            let want = m.membrane_kpa(d).unwrap() + m.sand.loading_pressure_kpa(d, h);
+            assert_eq!(m.internal_pressure_kpa(d, h), want);
+        }
+        assert!(m.internal_pressure_kpa(18.7, 0.0).abs() < 1e-12);
+        let line = m.provenance();
+        assert!(line.contains(crate::sand::solver::DATA_PATH), "{line}");
+        assert!(
+            line.contains(&format!("0x{:08X}", m.sand.crc32())),
+            "{line}"
+        );
     }
 }

@@ -1,24 +1,12 @@
-//! The sand's pressure on the expanding zone, p_e(D, h): a documented
-//! parametric law standing in for the FEM–DEM solver, which will later
-//! supply its numbers through the same [`SandLaw`] interface.
+//! The parametric sand law, standing in for the FEM–DEM solver wherever a
+//! smooth, calibrated law is wanted (the emulator's plant, the workbench).
 //!
-//! Everything scales with the vertical effective stress at the actuator's
-//! axis, σ'v = γ'·h, with the buoyant unit weight of the saturated sand
-//! γ' = (ρs − ρw)(1 − n)·g (pore water pressure acts equally inside and
-//! outside, and the pressure sensor is zeroed in free water, so only the
-//! effective stress of the grains loads the skin). The law is a lateral
-//! pressure coefficient K(D) = p_e/σ'v:
-//!
-//! - **loading** (the zone grows past anything reached this cycle):
-//!   K = K0 + (N − K0)·tanh(ΔD/ΔDc), ΔD = D − D0: from the at-rest K0,
-//!   first linear, then the slope falls as grains start to slide, then a
-//!   plateau at the limit N (the paper's Figure 3b);
-//! - **unloading** (the zone shrinks from its peak, or regrows up to it):
-//!   elastic, K = K_peak − s·(D_peak − D) with a slope s = m·(N − K0)/ΔDc,
-//!   m times the initial loading slope, floored at the active coefficient
-//!   Ka (the sand follows the skin in but cannot pull on it);
-//! - **fresh cycle**: the animal advances about 1 mm per cycle into sand the
-//!   last expansion did not touch, so each cycle starts at rest (D0, K0).
+//! Its loading branch: K = K0 + (N − K0)·tanh(ΔD/ΔDc), ΔD = D − D0, from
+//! the at-rest K0, first linear, then the slope falls as grains start to
+//! slide, then a plateau at the limit N (the paper's Figure 3b). Unloading
+//! (the shared [`Unloading`] rule) has the slope s = m·(N − K0)/ΔDc, m
+//! times the initial loading slope. σ'v = γ'·h with the buoyant unit weight
+//! of the saturated sand γ' = (ρs − ρw)(1 − n)·g.
 //!
 //! N is calibrated in code ([`calibrate_limit_coefficient`]) to the
 //! balloon experiment ([`BALLOON_TABLE`]), taken as p_e at the end of the
@@ -26,8 +14,7 @@
 
 use serde::Serialize;
 
-/// Standard gravity (m/s²).
-pub const GRAVITY_M_S2: f64 = 9.80665;
+use super::{SandHistory, SandLaw, Unloading, GRAVITY_M_S2};
 
 /// Sand and fluid properties and the law's coefficients.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -99,35 +86,6 @@ impl SandParams {
     }
 }
 
-/// What the sand remembers within one expansion cycle.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct SandHistory {
-    /// Largest outer diameter reached this cycle (mm).
-    pub peak_diameter_mm: f64,
-    /// Lateral coefficient K = p_e/σ'v reached there.
-    pub peak_coefficient: f64,
-}
-
-/// A model of the sand's pressure on the zone. The FEM–DEM solver will
-/// implement (or recalibrate) this; callers only see this interface.
-pub trait SandLaw {
-    /// History at the start of a cycle, in undisturbed sand at rest.
-    fn fresh_cycle(&self) -> SandHistory;
-    /// p_e (kPa) at outer diameter `diameter_mm` and depth `depth_mm`,
-    /// advancing `history` (the path matters: loading vs unloading).
-    fn external_pressure_kpa(
-        &self,
-        history: &mut SandHistory,
-        diameter_mm: f64,
-        depth_mm: f64,
-    ) -> f64;
-    /// p_e (kPa) on the loading branch of a fresh cycle.
-    fn loading_pressure_kpa(&self, diameter_mm: f64, depth_mm: f64) -> f64 {
-        let mut history = self.fresh_cycle();
-        self.external_pressure_kpa(&mut history, diameter_mm, depth_mm)
-    }
-}
-
 /// The parametric law of this module.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ParametricSand {
@@ -163,14 +121,22 @@ impl ParametricSand {
         p.unloading_stiffness_ratio * (p.limit_coefficient - p.at_rest_coefficient)
             / p.characteristic_diameter_increase_mm
     }
+
+    /// Its unloading rule: slope [`Self::unloading_slope_per_mm`], floor Ka.
+    pub fn unloading(&self) -> Unloading {
+        Unloading {
+            slope_per_mm: self.unloading_slope_per_mm(),
+            active_coefficient: self.params.active_coefficient,
+        }
+    }
 }
 
 impl SandLaw for ParametricSand {
     fn fresh_cycle(&self) -> SandHistory {
-        SandHistory {
-            peak_diameter_mm: self.params.initial_diameter_mm,
-            peak_coefficient: self.params.at_rest_coefficient,
-        }
+        SandHistory::at_rest(
+            self.params.initial_diameter_mm,
+            self.params.at_rest_coefficient,
+        )
     }
 
     fn external_pressure_kpa(
@@ -179,19 +145,22 @@ impl SandLaw for ParametricSand {
         diameter_mm: f64,
         depth_mm: f64,
     ) -> f64 {
-        let k = if diameter_mm >= history.peak_diameter_mm {
-            let k = self.loading_coefficient(diameter_mm);
-            *history = SandHistory {
-                peak_diameter_mm: diameter_mm,
-                peak_coefficient: k,
-            };
-            k
-        } else {
-            let back = history.peak_diameter_mm - diameter_mm;
-            (history.peak_coefficient - self.unloading_slope_per_mm() * back)
-                .max(self.params.active_coefficient)
-        };
+        let k = self
+            .unloading()
+            .coefficient(history, diameter_mm, |d| self.loading_coefficient(d));
         k * self.params.vertical_effective_stress_kpa(depth_mm)
+    }
+
+    fn describe(&self) -> String {
+        let s = &self.params;
+        format!(
+            "parametric sand K0={:.3} N={:.3} dDc={:.3} mm, \
+             gamma'={:.5} kPa/mm (N fit to the paper's balloon table)",
+            s.at_rest_coefficient,
+            s.limit_coefficient,
+            s.characteristic_diameter_increase_mm,
+            s.buoyant_unit_weight_kpa_per_mm(),
+        )
     }
 }
 

@@ -1,0 +1,212 @@
+//! `host-sim solver-sand`: runs the FEM–DEM solver ([`crate::simulate`])
+//! at each depth, bins each run's p_e over the outer diameter and writes
+//! the stored results [`SolverSand`] reads ([`super::solver::DATA_PATH`]).
+//!
+//! Binning is the smoothing: the solver's samples are single DEM steps,
+//! scattered by the few grains touching the skin, so each stored row is
+//! the mean D and mean p_e of the samples in one [`BIN_WIDTH_MM`] bin from
+//! the settled diameter to the final one; empty bins are left out.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{ensure, Context, Result};
+use serde::Serialize;
+
+use super::solver::{SolverSand, COLUMNS, UNIT_WEIGHT_KEY};
+use crate::simulate::{simulate, Options, ScenarioSpec};
+
+/// Grain radius of the solver runs (mm): the coarse-grained sand of
+/// `host-sim simulate`'s default case.
+pub const GRAIN_RADIUS_MM: f64 = 1.5;
+
+/// Depths of the solver runs (mm): the paper's balloon experiment's.
+pub const DEPTHS_MM: [f64; 4] = [40.0, 50.0, 70.0, 100.0];
+
+/// Width of the diameter bins (mm): the firmware table's column spacing.
+pub const BIN_WIDTH_MM: f64 = 0.25;
+
+/// One diameter bin of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Bin {
+    /// Mean outer diameter of the samples in the bin (mm).
+    pub diameter_mm: f64,
+    /// Mean p_e of those samples (kPa).
+    pub p_e_kpa: f64,
+    /// How many samples fell in the bin.
+    pub samples: usize,
+}
+
+/// Bins `(D mm, p_e kPa)` points into bins of `width_mm` from `start_mm`
+/// (the first bin is [start, start + width)) up to the bin holding
+/// `end_mm`: each bin's mean D and mean p_e; empty bins, points outside
+/// and non-finite points are left out.
+pub fn bin_samples(points: &[(f64, f64)], start_mm: f64, end_mm: f64, width_mm: f64) -> Vec<Bin> {
+    if !(width_mm > 0.0 && start_mm.is_finite() && end_mm.is_finite() && end_mm > start_mm) {
+        return Vec::new();
+    }
+    let n = ((end_mm - start_mm) / width_mm).ceil() as usize;
+    let mut sums = vec![(0.0f64, 0.0f64, 0usize); n];
+    for &(d, p) in points {
+        if !(d.is_finite() && p.is_finite()) {
+            continue;
+        }
+        let k = ((d - start_mm) / width_mm).floor();
+        if k < 0.0 {
+            continue;
+        }
+        if let Some(s) = sums.get_mut(k as usize) {
+            s.0 += d;
+            s.1 += p;
+            s.2 += 1;
+        }
+    }
+    sums.into_iter()
+        .filter(|s| s.2 > 0)
+        .map(|(d, p, n)| Bin {
+            diameter_mm: d / n as f64,
+            p_e_kpa: p / n as f64,
+            samples: n,
+        })
+        .collect()
+}
+
+/// What to run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RegenerateOptions {
+    /// Solver depths (mm).
+    pub depths_mm: Vec<f64>,
+    /// `ScenarioSpec::quick` instead of `ScenarioSpec::paper`.
+    pub quick: bool,
+    /// Show the solver's progress bar.
+    pub progress: bool,
+}
+
+/// One depth's run.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DepthRun {
+    /// Depth of the zone's axis (mm).
+    pub depth_mm: f64,
+    /// Outer diameter after settling, where the bins start (mm).
+    pub settled_diameter_mm: f64,
+    /// Last sample's D (mm).
+    pub final_diameter_mm: f64,
+    /// Last sample's p_e (kPa).
+    pub final_p_e_kpa: f64,
+    /// The binned p_e.
+    pub bins: Vec<Bin>,
+    /// Wall time of the run (s).
+    pub wall_s: f64,
+}
+
+/// The solver case at `depth_mm`.
+pub fn spec(depth_mm: f64, quick: bool) -> ScenarioSpec {
+    let (h, r) = (depth_mm * 1e-3, GRAIN_RADIUS_MM * 1e-3);
+    if quick {
+        ScenarioSpec::quick(h, r)
+    } else {
+        ScenarioSpec::paper(h, r)
+    }
+}
+
+/// Runs the solver at `depth_mm` (writing no files) and bins its p_e.
+pub fn run_depth(depth_mm: f64, quick: bool, progress: bool) -> Result<DepthRun> {
+    let t0 = Instant::now();
+    let spec = spec(depth_mm, quick);
+    let final_mm = spec.final_diameter_m * 1e3;
+    let report = simulate(&Options {
+        spec,
+        out: None,
+        progress,
+    })
+    .with_context(|| format!("solver run at h = {depth_mm} mm"))?;
+    let last = report
+        .last()
+        .with_context(|| format!("the solver run at h = {depth_mm} mm gave no samples"))?;
+    let settled_mm = report.settled.sample.outer_diameter_m * 1e3;
+    let points: Vec<(f64, f64)> = report
+        .samples
+        .iter()
+        .map(|s| (s.outer_diameter_m * 1e3, s.sand_pressure_pa * 1e-3))
+        .collect();
+    Ok(DepthRun {
+        depth_mm,
+        settled_diameter_mm: settled_mm,
+        final_diameter_mm: last.outer_diameter_m * 1e3,
+        final_p_e_kpa: last.sand_pressure_pa * 1e-3,
+        bins: bin_samples(&points, settled_mm, final_mm, BIN_WIDTH_MM),
+        wall_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// The data file's text for `runs` made with `quick`.
+pub fn csv_text(runs: &[DepthRun], quick: bool) -> Result<String> {
+    let first = runs.first().context("no solver runs")?;
+    let probe = spec(first.depth_mm, quick);
+    // γ' in kPa per mm of depth (N/m³ × 1e-6); the same for every depth.
+    let unit_weight = probe.buoyant_unit_weight_n_m3() * 1e-6;
+    for r in runs {
+        let g = spec(r.depth_mm, quick).buoyant_unit_weight_n_m3() * 1e-6;
+        ensure!(
+            g == unit_weight,
+            "the solver's unit weight differs between depths"
+        );
+    }
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# p_e(D, h) of the FEM-DEM solver (host-sim simulate), binned over D; see README.md here."
+    );
+    let _ = writeln!(
+        s,
+        "# Regenerate: cargo sim solver-sand{}",
+        if quick { " --quick" } else { "" }
+    );
+    let _ = writeln!(s, "# {UNIT_WEIGHT_KEY} = {unit_weight:.10}");
+    let _ = writeln!(s, "# grain_radius_mm = {GRAIN_RADIUS_MM}");
+    let _ = writeln!(s, "# run = {}", if quick { "quick" } else { "full" });
+    let _ = writeln!(s, "# seed = {}", probe.seed);
+    let _ = writeln!(s, "# bin_width_mm = {BIN_WIDTH_MM}");
+    let _ = writeln!(s, "{}", COLUMNS.join(","));
+    for r in runs {
+        for b in &r.bins {
+            let _ = writeln!(
+                s,
+                "{},{:.4},{:.4},{}",
+                r.depth_mm, b.diameter_mm, b.p_e_kpa, b.samples
+            );
+        }
+    }
+    Ok(s)
+}
+
+/// Runs every depth of `opts` in increasing order, calling `on_depth`
+/// after each, and writes the data file to `out` atomically, after
+/// checking that [`SolverSand`] reads it back.
+pub fn regenerate(
+    opts: &RegenerateOptions,
+    out: &Path,
+    mut on_depth: impl FnMut(&DepthRun),
+) -> Result<Vec<DepthRun>> {
+    let mut depths = opts.depths_mm.clone();
+    ensure!(!depths.is_empty(), "no depths given");
+    ensure!(
+        depths.iter().all(|d| d.is_finite() && *d > 0.0),
+        "depths must be positive (mm): {depths:?}"
+    );
+    depths.sort_by(f64::total_cmp);
+    depths.dedup();
+    let mut runs = Vec::with_capacity(depths.len());
+    for &h in &depths {
+        let run = run_depth(h, opts.quick, opts.progress)?;
+        on_depth(&run);
+        runs.push(run);
+    }
+    let text = csv_text(&runs, opts.quick)?;
+    SolverSand::parse(&text, &out.display().to_string())
+        .context("the solver results do not make a valid data file")?;
+    crate::files::write_atomic(out, text.as_bytes())
+        .with_context(|| format!("writing {}", out.display()))?;
+    Ok(runs)
+}
