@@ -260,3 +260,50 @@ fn closed_end_inflation_matches_the_closed_form_tube_within_2_percent() {
         assert!((lz - lz_want).abs() < 0.01 * (lz_want - 1.0).abs().max(0.01));
     }
 }
+
+/// Sum of the internal z forces on the front ring (N): what the skin pulls
+/// on whatever holds that ring.
+fn front_ring_internal_z_n(skin: &Skin<Yeoh>) -> f64 {
+    let mut f = vec![Vector3::zeros(); skin.node_count()];
+    skin.internal_forces_n(&mut f).unwrap();
+    skin.mesh.ring(skin.mesh.along).map(|a| f[a].z).sum()
+}
+
+#[test]
+fn a_free_head_settles_where_the_clamped_skin_carries_its_load() {
+    // Push the free head back with a constant force until it comes to
+    // rest; then clamp a fresh skin's front ring at that displacement: the
+    // skin must carry the same force (the head's rigid-body coupling and
+    // the FEM statics agree).
+    let spec = SkinSpec::paper(16, 4);
+    let load_n = -2e-3;
+    let mut skin = Skin::new(default_skin(), &spec, Ends::Head).unwrap();
+    skin.damping_per_s = 400.0;
+    let head = skin.head.as_mut().unwrap();
+    head.external_force_n = load_n;
+    let dt = 0.5 * skin.stable_time_step_s().unwrap();
+    for _ in 0..200_000 {
+        skin.step(dt).unwrap();
+    }
+    let head = skin.head.unwrap();
+    assert!(head.velocity_m_s.abs() < 1e-7, "{}", head.velocity_m_s);
+    let u = head.displacement_m;
+    assert!(u < -1e-5, "pushed back: {u}");
+    assert!((head.receding_m() + u).abs() < 1e-15);
+    // Every front-ring node moved with the head, none radially.
+    for a in skin.mesh.ring(spec.along) {
+        let (now, rest) = (skin.position_m[a], skin.mesh.rest_m[a]);
+        assert!((now.z - rest.z - u).abs() < 1e-15);
+        assert!((now.xy() - rest.xy()).norm() < 1e-15);
+    }
+    let mut clamped = Skin::new(default_skin(), &spec, Ends::Clamped).unwrap();
+    for a in clamped.mesh.ring(spec.along) {
+        clamped.position_m[a].z += u;
+    }
+    clamped.relax(1e-10, 400_000).unwrap();
+    let carried = front_ring_internal_z_n(&clamped);
+    assert!(
+        (carried - load_n).abs() < 0.01 * load_n.abs(),
+        "{carried} vs {load_n}"
+    );
+}

@@ -3,7 +3,8 @@
 //! the sand presses on the resting zone at the overburden's order, and the
 //! sand pressure rises as the zone expands to 25 mm.
 
-use host_sim::simulate::{simulate, Options, ScenarioSpec};
+use host_sim::fem::{Ends, Skin, SkinSpec};
+use host_sim::simulate::{simulate, FreeCurve, Options, ScenarioSpec};
 
 #[test]
 fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone() {
@@ -12,7 +13,7 @@ fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone(
         expansion_s: 0.08,
         frames: 2,
         samples: 20,
-        ..ScenarioSpec::quick(40e-3, 2.5e-3)
+        ..ScenarioSpec::quick(40e-3, 2.5e-3).with_surcharge(20e-3, 2)
     };
     let dir = tempfile::tempdir().unwrap();
     let report = simulate(&Options {
@@ -60,4 +61,54 @@ fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone(
     }
     let csv = std::fs::read_to_string(dir.path().join("samples.csv")).unwrap();
     assert_eq!(csv.lines().count(), report.samples.len() + 1);
+    assert!(
+        csv.starts_with("time_s,diameter_mm,")
+            && csv
+                .lines()
+                .next()
+                .unwrap()
+                .ends_with(",head_receding_mm,sand_share_kpa")
+    );
+    // The sand's share of p_i: positive, less than p_i; the skin's own
+    // pressure at 25 mm is the rest.
+    let m = report.final_means().unwrap();
+    assert!(m.samples >= 1);
+    let free = report.free.pressure_pa(last.outer_diameter_m).unwrap();
+    assert!(m.sand_share_pa > 0.0 && m.sand_share_pa < m.internal_pressure_pa);
+    assert!((last.internal_pressure_pa - report.sand_share_pa(last).unwrap() - free).abs() < 1e-9);
+    // The head moved with the expansion, by less than a grain.
+    assert!(
+        m.head_receding_m.abs() < spec.grain_radius_m,
+        "{}",
+        m.head_receding_m
+    );
+}
+
+#[test]
+fn the_free_skin_curve_is_the_relaxed_skin_without_sand() {
+    let spec = ScenarioSpec::paper(40e-3, 1.5e-3);
+    let curve = FreeCurve::of(&spec).unwrap();
+    assert_eq!(curve.pressure_pa(18.0e-3), None);
+    assert_eq!(curve.pressure_pa(40.0e-3), None);
+    // A fresh skin relaxed at p_free(D) reaches D, for D between the
+    // curve's relaxed states.
+    for d in [21.0e-3, 24.0e-3, 25.0e-3] {
+        let p = curve.pressure_pa(d).unwrap();
+        let (around, along) = spec.skin_mesh;
+        let mut skin = Skin::new(
+            spec.skin_law(),
+            &SkinSpec::paper(around, along),
+            Ends::Clamped,
+        )
+        .unwrap();
+        skin.pressure_pa = p;
+        skin.relax(1e-7, 400_000).unwrap();
+        let got = skin.outer_diameter_at_mid_length_m();
+        assert!(
+            (got - d).abs() < 0.02e-3,
+            "{} mm at {p} Pa, want {} mm",
+            got * 1e3,
+            d * 1e3
+        );
+    }
 }

@@ -66,6 +66,9 @@ pub struct Sample {
     pub max_von_mises_pa: f64,
     /// Particles touching the skin.
     pub contacts: usize,
+    /// Head receding distance D_r (m), positive backwards; 0 when the
+    /// skin has no free head.
+    pub head_receding_m: f64,
 }
 
 /// The skin, its contact law with the particles, and an optional front
@@ -135,6 +138,7 @@ impl<S: StrainEnergy> Coupling<S> {
             face_pressure_pa: self.face.as_ref().map(FrontFace::pressure_pa),
             max_von_mises_pa,
             contacts: self.last.contacts,
+            head_receding_m: self.skin.head.map_or(0.0, |h| h.receding_m()),
         })
     }
 
@@ -230,11 +234,20 @@ impl<S: StrainEnergy> Coupling<S> {
                 self.skin_dt_s = self.skin.stable_time_step_s()?;
             }
             self.advances += 1;
+            // The sand on the face pushes the head (last evaluation's force).
+            if let (Some(head), Some(face)) = (&mut self.skin.head, &self.face) {
+                head.external_force_n = -face.normal_force_n() * face.normal.z;
+            }
             let substeps = (lag / self.skin_dt_s).ceil().max(1.0);
             for _ in 0..substeps as u64 {
                 self.skin.step(lag / substeps)?;
             }
             self.skin.time_s = time_s;
+            // The face rides on the head.
+            if let (Some(head), Some(face)) = (&self.skin.head, &mut self.face) {
+                face.centre_m.z = self.skin.spec.length_m + head.displacement_m;
+                face.velocity_m_s.z = head.velocity_m_s;
+            }
         }
         self.exchange(particles)?;
         if let Some(face) = &mut self.face {

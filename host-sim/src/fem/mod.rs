@@ -121,6 +121,54 @@ pub enum Ends {
     /// radially), the far ring free and pulled by the pressure on a flat
     /// end cap spanning it (the closed-end tube, for verification).
     Closed,
+    /// The back ring fixed to the body, the front ring to a rigid head
+    /// ([`Head`]) that slides along the axis: the ring keeps its radius
+    /// and moves with the head, which the skin's axial pull and the sand
+    /// on its face drive. The fluid loads the skin only: the head cap's
+    /// share is carried by the body's longitudinal muscles (not modelled),
+    /// as in the paper's FEM–DEM model, where the bulging skin draws the
+    /// head back (the head receding distance D_r).
+    Head,
+}
+
+/// The rigid head closing the front ring of [`Ends::Head`]: one axial
+/// degree of freedom.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Head {
+    /// Mass of the head (kg), the front ring's nodes not included.
+    pub mass_kg: f64,
+    /// Axial displacement from rest (m), positive forwards (+z).
+    pub displacement_m: f64,
+    /// Axial velocity (m/s), at the half step like the nodes'.
+    pub velocity_m_s: f64,
+    /// Axial force on the head from outside the skin (N), e.g. the sand on
+    /// its front face; set by the caller before each step.
+    pub external_force_n: f64,
+    /// Held in place (for checks; the scenario leaves it free).
+    pub held: bool,
+    /// Displacement D_r is measured from (m), e.g. where the head sat
+    /// when the expansion began.
+    pub origin_m: f64,
+}
+
+impl Head {
+    /// A free head at rest of `mass_kg` (kg).
+    pub fn at_rest(mass_kg: f64) -> Head {
+        Head {
+            mass_kg,
+            displacement_m: 0.0,
+            velocity_m_s: 0.0,
+            external_force_n: 0.0,
+            held: false,
+            origin_m: 0.0,
+        }
+    }
+
+    /// How far the head has receded from [`Head::origin_m`], D_r (m),
+    /// positive backwards.
+    pub fn receding_m(&self) -> f64 {
+        self.origin_m - self.displacement_m
+    }
 }
 
 /// Loading by injected volume: the fluid inside is a penalty (a stiff
@@ -180,6 +228,9 @@ pub struct Skin<S: StrainEnergy> {
     pub external_force_n: Vec<Vector3<f64>>,
     /// Simulated time (s).
     pub time_s: f64,
+    /// The rigid head of [`Ends::Head`] (`None` for the other ends). Its
+    /// default mass is a tissue hemisphere of the zone's outer radius.
+    pub head: Option<Head>,
 }
 
 impl<S: StrainEnergy> Skin<S> {
@@ -208,7 +259,8 @@ impl<S: StrainEnergy> Skin<S> {
             for a in mesh.ring(j) {
                 fixed[a] = match (ends, j) {
                     (Ends::PlaneStrain, _) | (Ends::Closed, 0) => [false, false, true],
-                    (Ends::Clamped, _) => [true; 3],
+                    // The head's ring moves only with the head (see step).
+                    (Ends::Clamped | Ends::Head, _) => [true; 3],
                     (Ends::Closed, _) => [false; 3],
                 };
             }
@@ -228,6 +280,10 @@ impl<S: StrainEnergy> Skin<S> {
             volume_control: None,
             damping_per_s: 0.0,
             time_s: 0.0,
+            head: (ends == Ends::Head).then(|| {
+                let outer = spec.mid_radius_m + 0.5 * spec.thickness_m;
+                Head::at_rest(2.0 / 3.0 * std::f64::consts::PI * outer.powi(3) * spec.density_kg_m3)
+            }),
         })
     }
 
@@ -296,21 +352,35 @@ impl<S: StrainEnergy> Skin<S> {
     /// Out-of-balance force on each node (N): pressure + external −
     /// internal, zero on fixed components.
     pub fn residual_n(&self, out: &mut [Vector3<f64>]) -> Result<(), FemError> {
+        self.residual_and_head_force_n(out).map(|_| ())
+    }
+
+    /// [`Skin::residual_n`], returning also the axial force the skin puts
+    /// on the head: the front ring's out-of-balance z forces before they
+    /// are zeroed (N; 0 without a head).
+    fn residual_and_head_force_n(&self, out: &mut [Vector3<f64>]) -> Result<f64, FemError> {
         self.internal_forces_n(out)?;
         out.iter_mut().for_each(|f| *f = -*f);
         self.add_pressure_forces_n(out);
         if self.ends == Ends::Closed {
             self.add_end_cap_forces_n(out);
         }
-        for ((r, ext), fix) in out.iter_mut().zip(&self.external_force_n).zip(&self.fixed) {
+        for (r, ext) in out.iter_mut().zip(&self.external_force_n) {
             *r += ext;
+        }
+        let head_n = if self.head.is_some() {
+            self.mesh.ring(self.mesh.along).map(|a| out[a].z).sum()
+        } else {
+            0.0
+        };
+        for (r, fix) in out.iter_mut().zip(&self.fixed) {
             for k in 0..3 {
                 if fix[k] {
                     r[k] = 0.0;
                 }
             }
         }
-        Ok(())
+        Ok(head_n)
     }
 
     /// The pressure on the flat cap closing the far ring (closed ends),
@@ -381,7 +451,7 @@ impl<S: StrainEnergy> Skin<S> {
         }
         let mut r = vec![Vector3::zeros(); self.node_count()];
         self.update_pressure();
-        self.residual_n(&mut r)?;
+        let head_n = self.residual_and_head_force_n(&mut r)?;
         let c = 0.5 * self.damping_per_s * dt_s;
         for (((x, v), m), f) in self
             .position_m
@@ -392,6 +462,22 @@ impl<S: StrainEnergy> Skin<S> {
         {
             *v = (*v * (1.0 - c) + f * (dt_s / m)) / (1.0 + c);
             *x += *v * dt_s;
+        }
+        if let Some(head) = &mut self.head {
+            let ring = self.mesh.ring(self.mesh.along);
+            if head.held {
+                head.velocity_m_s = 0.0;
+            } else {
+                // The head and its ring move as one rigid body along z.
+                let m = head.mass_kg + ring.clone().map(|a| self.mass_kg[a]).sum::<f64>();
+                let f = head_n + head.external_force_n;
+                head.velocity_m_s = (head.velocity_m_s * (1.0 - c) + f * (dt_s / m)) / (1.0 + c);
+            }
+            head.displacement_m += head.velocity_m_s * dt_s;
+            for a in ring {
+                self.position_m[a].z = self.mesh.rest_m[a].z + head.displacement_m;
+                self.velocity_m_s[a].z = head.velocity_m_s;
+            }
         }
         self.time_s += dt_s;
         Ok(())

@@ -9,6 +9,7 @@
 //! Not yet: the head receding distance D_r (the front face is fixed), and
 //! any calibration against the paper (see `host-sim/README-simulate.md`).
 
+pub mod free_skin;
 pub mod output;
 pub mod run;
 pub mod scenario;
@@ -21,6 +22,7 @@ use anyhow::Result;
 
 use crate::coupling::Sample;
 use crate::fem::vtk::write_vtk;
+pub use free_skin::FreeCurve;
 pub use run::Settled;
 pub use scenario::{build, Bed, ScenarioSpec};
 
@@ -37,6 +39,8 @@ pub struct Report {
     pub settled: Settled,
     /// The expansion's samples.
     pub samples: Vec<Sample>,
+    /// The zone's pressure with no sand, p_free(D).
+    pub free: FreeCurve,
     /// Wall time of the whole run (s).
     pub wall_s: f64,
 }
@@ -47,12 +51,41 @@ impl Report {
         self.samples.last()
     }
 
-    /// Drop of the front-face pressure from the settled mean to the end
-    /// (fraction of the settled value).
+    /// Means over the end of the expansion, the samples within
+    /// [`FINAL_WINDOW_M`] of the final diameter (single DEM steps scatter
+    /// by tens of per cent; the paper's quantities sit on a plateau there).
+    pub fn final_means(&self) -> Option<FinalMeans> {
+        let d1 = self.last()?.outer_diameter_m;
+        let tail: Vec<&Sample> = self
+            .samples
+            .iter()
+            .filter(|s| s.outer_diameter_m >= d1 - FINAL_WINDOW_M)
+            .collect();
+        let mean =
+            |f: &dyn Fn(&Sample) -> f64| tail.iter().map(|s| f(s)).sum::<f64>() / tail.len() as f64;
+        Some(FinalMeans {
+            samples: tail.len(),
+            internal_pressure_pa: mean(&|s| s.internal_pressure_pa),
+            sand_pressure_pa: mean(&|s| s.sand_pressure_pa),
+            face_pressure_pa: mean(&|s| s.face_pressure_pa.unwrap_or(f64::NAN)),
+            max_von_mises_pa: tail.iter().map(|s| s.max_von_mises_pa).fold(0.0, f64::max),
+            head_receding_m: mean(&|s| s.head_receding_m),
+            sand_share_pa: mean(&|s| self.sand_share_pa(s).unwrap_or(f64::NAN)),
+        })
+    }
+
+    /// The sand's share of the internal pressure at sample `s`,
+    /// Δp_i = p_i − p_free(D) (Pa): the experiment's p_e.
+    pub fn sand_share_pa(&self, s: &Sample) -> Option<f64> {
+        Some(s.internal_pressure_pa - self.free.pressure_pa(s.outer_diameter_m)?)
+    }
+
+    /// Drop of the front-face pressure from the settled mean to the final
+    /// mean (fraction of the settled value).
     pub fn face_pressure_drop(&self) -> Option<f64> {
         let p0 = self.settled.face_pressure_pa;
-        let p1 = self.last()?.face_pressure_pa?;
-        (p0 > 0.0).then(|| 1.0 - p1 / p0)
+        let p1 = self.final_means()?.face_pressure_pa;
+        (p0 > 0.0 && p1.is_finite()).then(|| 1.0 - p1 / p0)
     }
 
     /// A plain-text summary.
@@ -71,28 +104,31 @@ impl Report {
         );
         let _ = writeln!(
             s,
-            "settled (means over its last quarter): support {:.4} N vs buoyant weight {:.4} N (floor {:.4} N), p_e {:.3} kPa, p_h {:.3} kPa; at its end: slab top {:.1} mm above the axis, D {:.2} mm, p_i {:.3} kPa, kinetic energy {:.2e} J",
+            "settled (means over its last quarter): support {:.4} N vs buoyant weight {:.4} N (floor {:.4} N), p_e {:.3} kPa, p_h {:.3} kPa; at its end: surface {:.1} mm above the axis (highest grain {:.1} mm), D {:.2} mm, p_i {:.3} kPa, kinetic energy {:.2e} J",
             st.support_n,
             st.buoyant_weight_n,
             st.floor_force_n,
             st.sand_pressure_pa * 1e-3,
             st.face_pressure_pa * 1e-3,
+            st.surface_m * 1e3,
             st.slab_top_m * 1e3,
             st.sample.outer_diameter_m * 1e3,
             st.sample.internal_pressure_pa * 1e-3,
             st.kinetic_energy_j
         );
-        if let Some(l) = self.last() {
+        if let (Some(l), Some(m)) = (self.last(), self.final_means()) {
             let _ = writeln!(
                 s,
-                "final: D {:.2} mm, p_i {:.3} kPa, p_e {:.3} kPa, p_h {:.3} kPa (drop {:.1} %), max von Mises {:.4} MPa, {} samples",
-                l.outer_diameter_m * 1e3,
-                l.internal_pressure_pa * 1e-3,
-                l.sand_pressure_pa * 1e-3,
-                l.face_pressure_pa.unwrap_or(f64::NAN) * 1e-3,
+                "final (means over D ≥ {:.2} mm, {} samples): p_i {:.3} kPa, sand's share of it Δp_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa (drop {:.1} % from settled), D_r {:.2} mm, max von Mises {:.4} MPa",
+                (l.outer_diameter_m - FINAL_WINDOW_M) * 1e3,
+                m.samples,
+                m.internal_pressure_pa * 1e-3,
+                m.sand_share_pa * 1e-3,
+                m.sand_pressure_pa * 1e-3,
+                m.face_pressure_pa * 1e-3,
                 100.0 * self.face_pressure_drop().unwrap_or(f64::NAN),
-                l.max_von_mises_pa * 1e-6,
-                self.samples.len()
+                m.head_receding_m * 1e3,
+                m.max_von_mises_pa * 1e-6,
             );
         }
         let _ = writeln!(
@@ -102,6 +138,29 @@ impl Report {
         let _ = writeln!(s, "wall time {:.1} s", self.wall_s);
         s
     }
+}
+
+/// Width of the diameter window the final means are taken over (m).
+pub const FINAL_WINDOW_M: f64 = 0.3e-3;
+
+/// Means over the last [`FINAL_WINDOW_M`] of the expansion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FinalMeans {
+    /// Samples in the window.
+    pub samples: usize,
+    /// Internal pressure p_i (Pa).
+    pub internal_pressure_pa: f64,
+    /// Sand pressure on the skin p_e (Pa).
+    pub sand_pressure_pa: f64,
+    /// Sand pressure on the front face p_h (Pa); NaN without a face.
+    pub face_pressure_pa: f64,
+    /// Largest skin von Mises stress in the window (Pa).
+    pub max_von_mises_pa: f64,
+    /// Head receding distance D_r (m).
+    pub head_receding_m: f64,
+    /// The sand's share of the internal pressure Δp_i = p_i − p_free(D)
+    /// (Pa), the experiment's p_e (see [`free_skin`]).
+    pub sand_share_pa: f64,
 }
 
 /// Options of a command-line run.
@@ -121,6 +180,7 @@ pub fn simulate(opts: &Options) -> Result<Report> {
     let t0 = Instant::now();
     let bar = run::progress_bar(opts.progress)?;
     let mut bed = build(&opts.spec)?;
+    let free = FreeCurve::of(&opts.spec)?;
     let settled = run::settle(&mut bed, &bar)?;
     let mut frames: Vec<(String, String, f64)> = Vec::new();
     let samples = run::inflate(&mut bed, &bar, |b, k| {
@@ -136,17 +196,20 @@ pub fn simulate(opts: &Options) -> Result<Report> {
         surcharge_pa: opts.spec.surcharge_pa(),
         settled,
         samples,
+        free,
         wall_s: t0.elapsed().as_secs_f64(),
     };
     if let Some(dir) = &opts.out {
-        output::write_text(dir, "samples.csv", &output::samples_csv(&report.samples)?)?;
+        output::write_text(dir, "samples.csv", &output::samples_csv(&report)?)?;
         let title = format!(
             "expansion at h = {:.0} mm, r = {:.1} mm grains",
             opts.spec.depth_m * 1e3,
             opts.spec.grain_radius_m * 1e3
         );
-        let svg = output::pressure_plot_svg(&report.samples, &title)?;
+        let svg = output::pressure_plot_svg(&report, &title)?;
         output::write_text(dir, "pressures.svg", svg.as_bytes())?;
+        let svg = output::head_plot_svg(&report, &title)?;
+        output::write_text(dir, "head.svg", svg.as_bytes())?;
         let grains: Vec<(String, f64)> = frames.iter().map(|f| (f.0.clone(), f.2)).collect();
         let skin: Vec<(String, f64)> = frames.iter().map(|f| (f.1.clone(), f.2)).collect();
         output::write_text(

@@ -1,7 +1,7 @@
-//! Result files of a scenario run: the samples as CSV, p_e, p_i and p_h
-//! against D as an SVG plot, and VTK frames (grains as points with their
-//! radius, the skin mesh) with `.vtk.series` indexes for ParaView. All
-//! written atomically.
+//! Result files of a scenario run: the samples as CSV, the pressures and
+//! the head receding distance against D as SVG plots, and VTK frames
+//! (grains as points with their radius, the skin mesh) with `.vtk.series`
+//! indexes for ParaView. All written atomically.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -9,12 +9,14 @@ use std::path::Path;
 use anyhow::{anyhow, Context, Result};
 use plotters::prelude::*;
 
+use super::Report;
 use crate::coupling::Sample;
 use crate::dem::Particles;
 use crate::files::write_atomic;
 
-/// The samples as CSV: time, D, p_i, p_e, p_h, max von Mises, contacts.
-pub fn samples_csv(samples: &[Sample]) -> Result<Vec<u8>> {
+/// The samples as CSV: time, D, p_i, p_e, p_h, max von Mises, contacts,
+/// head receding distance D_r, the sand's share of p_i.
+pub fn samples_csv(report: &Report) -> Result<Vec<u8>> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record([
         "time_s",
@@ -24,8 +26,10 @@ pub fn samples_csv(samples: &[Sample]) -> Result<Vec<u8>> {
         "front_pressure_kpa",
         "max_von_mises_mpa",
         "skin_contacts",
+        "head_receding_mm",
+        "sand_share_kpa",
     ])?;
-    for s in samples {
+    for s in &report.samples {
         w.write_record([
             format!("{:.6}", s.time_s),
             format!("{:.4}", s.outer_diameter_m * 1e3),
@@ -34,6 +38,8 @@ pub fn samples_csv(samples: &[Sample]) -> Result<Vec<u8>> {
             format!("{:.5}", s.face_pressure_pa.unwrap_or(f64::NAN) * 1e-3),
             format!("{:.6}", s.max_von_mises_pa * 1e-6),
             s.contacts.to_string(),
+            format!("{:.4}", s.head_receding_m * 1e3),
+            format!("{:.5}", report.sand_share_pa(s).unwrap_or(f64::NAN) * 1e-3),
         ])?;
     }
     w.into_inner().map_err(|e| anyhow!("CSV buffer: {e}"))
@@ -43,30 +49,70 @@ fn plot_err(e: impl std::fmt::Display) -> anyhow::Error {
     anyhow!("plotting: {e}")
 }
 
-/// p_e, p_i and p_h (kPa) against D (mm) as SVG text.
-pub fn pressure_plot_svg(samples: &[Sample], title: &str) -> Result<String> {
-    let pts = |f: &dyn Fn(&Sample) -> f64| -> Vec<(f64, f64)> {
-        samples
-            .iter()
-            .map(|s| (s.outer_diameter_m * 1e3, f(s) * 1e-3))
-            .filter(|p| p.1.is_finite())
-            .collect()
-    };
-    let series = [
-        ("p_i (internal)", pts(&|s| s.internal_pressure_pa), BLUE),
-        ("p_e (sand on skin)", pts(&|s| s.sand_pressure_pa), RED),
+/// One curve of a plot against D: legend, points (D mm, value), colour.
+type Curve = (&'static str, Vec<(f64, f64)>, RGBColor);
+
+/// (D in mm, `f(s)` × `scale`) for every sample where it is finite.
+fn against_d(report: &Report, scale: f64, f: &dyn Fn(&Sample) -> f64) -> Vec<(f64, f64)> {
+    report
+        .samples
+        .iter()
+        .map(|s| (s.outer_diameter_m * 1e3, f(s) * scale))
+        .filter(|p| p.1.is_finite())
+        .collect()
+}
+
+/// p_i, the sand's share of it Δp_i, p_e and p_h (kPa) against D (mm) as
+/// SVG text.
+pub fn pressure_plot_svg(report: &Report, title: &str) -> Result<String> {
+    let curves = [
+        (
+            "p_i (internal)",
+            against_d(report, 1e-3, &|s| s.internal_pressure_pa),
+            BLUE,
+        ),
+        (
+            "Δp_i = p_i − p_free(D) (the sand's share)",
+            against_d(report, 1e-3, &|s| {
+                report.sand_share_pa(s).unwrap_or(f64::NAN)
+            }),
+            MAGENTA,
+        ),
+        (
+            "p_e (sand contact on skin)",
+            against_d(report, 1e-3, &|s| s.sand_pressure_pa),
+            RED,
+        ),
         (
             "p_h (sand on front face)",
-            pts(&|s| s.face_pressure_pa.unwrap_or(f64::NAN)),
+            against_d(report, 1e-3, &|s| s.face_pressure_pa.unwrap_or(f64::NAN)),
             GREEN,
         ),
     ];
-    let all = series.iter().flat_map(|s| s.1.iter());
+    chart_svg(title, "pressure (kPa)", &curves)
+}
+
+/// The head receding distance D_r (mm) against D (mm) as SVG text (the
+/// paper's Figure 5).
+pub fn head_plot_svg(report: &Report, title: &str) -> Result<String> {
+    let curves = [(
+        "head receding distance D_r",
+        against_d(report, 1e3, &|s| s.head_receding_m),
+        BLUE,
+    )];
+    chart_svg(title, "D_r (mm)", &curves)
+}
+
+/// A line chart of `curves` against the outer diameter, y from
+/// min(0, data) up.
+fn chart_svg(title: &str, y_desc: &str, curves: &[Curve]) -> Result<String> {
+    let all = curves.iter().flat_map(|c| c.1.iter());
     let (x0, x1) = all
         .clone()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
             (a.min(p.0), b.max(p.0))
         });
+    let y0 = all.clone().fold(0.0f64, |a, p| a.min(p.1)) * 1.05;
     let y1 = all.fold(0.0f64, |a, p| a.max(p.1)) * 1.05 + 1e-3;
     let (x0, x1) = if x0 < x1 { (x0, x1) } else { (18.0, 26.0) };
     let mut svg = String::new();
@@ -78,19 +124,20 @@ pub fn pressure_plot_svg(samples: &[Sample], title: &str) -> Result<String> {
             .margin(15)
             .x_label_area_size(45)
             .y_label_area_size(60)
-            .build_cartesian_2d(x0..x1, 0.0..y1)
+            .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(plot_err)?;
         chart
             .configure_mesh()
             .x_desc("outer diameter D (mm)")
-            .y_desc("pressure (kPa)")
+            .y_desc(y_desc)
             .draw()
             .map_err(plot_err)?;
-        for (name, data, colour) in series {
+        for (name, data, colour) in curves {
+            let colour = *colour;
             chart
-                .draw_series(LineSeries::new(data, colour.stroke_width(2)))
+                .draw_series(LineSeries::new(data.clone(), colour.stroke_width(2)))
                 .map_err(plot_err)?
-                .label(name)
+                .label(*name)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
         }
         chart

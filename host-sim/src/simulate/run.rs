@@ -5,7 +5,7 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::scenario::{wall, Bed, FLUID_BULK_MODULUS_PA};
+use super::scenario::{grain_contacts, wall, Bed, FLUID_BULK_MODULUS_PA};
 use crate::coupling::{expand, Expansion, Sample};
 use crate::dem::step;
 
@@ -30,10 +30,16 @@ pub struct Settled {
     pub buoyant_weight_n: f64,
     /// Highest grain top of the slab (m above the axis).
     pub slab_top_m: f64,
+    /// Settled sand surface (m above the axis): the highest slab grain
+    /// top in each 4 r × 4 r column of the box's plan, averaged.
+    pub surface_m: f64,
     /// The state at the last step: D, p_i, p_e, p_h.
     pub sample: Sample,
     /// Kinetic energy left (J).
     pub kinetic_energy_j: f64,
+    /// How far the head receded while the bed settled (m): the sand ahead
+    /// pushes it back against the skin's axial stiffness.
+    pub head_settling_m: f64,
 }
 
 /// Vertical support of the grains by walls and skin (N).
@@ -56,7 +62,13 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
     let keep = (-bed.params.dt_s / SETTLE_DRAG_S).exp();
     let from = steps - steps / 4;
     let mut sums = [0.0f64; 4];
+    // Deposition with its own friction for the first half, then the sand's.
+    let sand_model = bed.params.pair_model;
+    bed.params.pair_model = grain_contacts(&bed.spec, bed.spec.deposition_friction)?;
     for k in 0..steps {
+        if k == steps / 2 {
+            bed.params.pair_model = sand_model;
+        }
         step(&bed.params, &mut bed.state, &mut bed.coupling).context("settling the bed")?;
         let p = &mut bed.state.particles;
         p.velocity_m_s.iter_mut().for_each(|v| *v *= keep);
@@ -86,7 +98,9 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
     let slab_top_m = (0..bed.slab_grains)
         .map(|i| p.position_m[i].y + p.radius_m[i])
         .fold(f64::NEG_INFINITY, f64::max);
+    let surface_m = surface_m(bed);
     Ok(Settled {
+        surface_m,
         floor_force_n: mean[0],
         support_n: mean[1],
         sand_pressure_pa: mean[2],
@@ -95,7 +109,22 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
         slab_top_m,
         sample: bed.coupling.sample()?,
         kinetic_energy_j: p.kinetic_energy_j(),
+        head_settling_m: bed.coupling.skin.head.map_or(0.0, |h| h.receding_m()),
     })
+}
+
+/// The slab's surface height (m above the axis), see [`Settled::surface_m`].
+fn surface_m(bed: &Bed) -> f64 {
+    let p = &bed.state.particles;
+    let cell = 4.0 * bed.spec.grain_radius_m;
+    let mut tops: std::collections::BTreeMap<(i64, i64), f64> = Default::default();
+    for i in 0..bed.slab_grains {
+        let x = p.position_m[i];
+        let key = ((x.x / cell).floor() as i64, (x.z / cell).floor() as i64);
+        let top = tops.entry(key).or_insert(f64::NEG_INFINITY);
+        *top = top.max(x.y + p.radius_m[i]);
+    }
+    tops.values().sum::<f64>() / tops.len().max(1) as f64
 }
 
 /// Inflates the zone from its settled state to `spec.final_diameter_m` in
@@ -125,6 +154,10 @@ pub fn inflate(
     bar.set_length(1000);
     bar.set_position(0);
     bar.set_message("expanding");
+    // D_r counts from where the settled head sits.
+    if let Some(head) = &mut bed.coupling.skin.head {
+        head.origin_m = head.displacement_m;
+    }
     let mut samples: Vec<Sample> = Vec::new();
     on_frame(bed, 0)?;
     for frame in 1..=spec.frames {

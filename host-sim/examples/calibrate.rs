@@ -1,0 +1,47 @@
+//! One scenario run with the calibration knobs on the command line, one
+//! summary line out (for sweeps): `cargo run --profile sim --example
+//! calibrate -- DEPTH_MM RADIUS_MM ROLLING DEPOSITION [quick|full] [SEED] [ABOVE_MM]`.
+
+use anyhow::{Context, Result};
+use host_sim::simulate::{simulate, Options, ScenarioSpec};
+
+fn main() -> Result<()> {
+    let a: Vec<String> = std::env::args().skip(1).collect();
+    let num = |i: usize, d: f64| -> Result<f64> {
+        a.get(i).map_or(Ok(d), |s| {
+            s.parse().with_context(|| format!("argument {i}: {s}"))
+        })
+    };
+    let (h, r) = (num(0, 40.0)? * 1e-3, num(1, 1.5)? * 1e-3);
+    // Spec defaults for anything not given (num's fallbacks read them).
+    let mut spec = if a.get(4).map(String::as_str) == Some("full") {
+        ScenarioSpec::paper(h, r)
+    } else {
+        ScenarioSpec::quick(h, r)
+    };
+    spec.rolling_friction = num(2, spec.rolling_friction)?;
+    spec.deposition_friction = num(3, spec.deposition_friction)?;
+    spec.seed = num(5, 1.0)? as u64;
+    spec.wall_friction = num(7, spec.wall_friction)?;
+    spec.skin_stiffness_scale = num(8, spec.skin_stiffness_scale)?;
+    let above = num(6, 0.0)? * 1e-3;
+    if above > 0.0 {
+        spec = spec.with_surcharge(above, 2);
+    }
+    let rep = simulate(&Options {
+        spec,
+        out: None,
+        progress: false,
+    })?;
+    let m = rep.final_means().context("no samples")?;
+    let st = &rep.settled;
+    println!(
+        "h {:>3.0} above {:.0} r {:.2} mu_r {:.2} wall {:.2} skin {:.1} dep {:.2} seed {} | settled p_e {:.3} p_h {:.3} surface {:.1} | final p_i {:.3} dp_i {:.3} p_e {:.3} p_h {:.3} drop {:5.1}% D_r {:.2} vm {:.4} | {:.0} s",
+        h * 1e3, rep.spec.above_m * 1e3, r * 1e3, rep.spec.rolling_friction, rep.spec.wall_friction, rep.spec.skin_stiffness_scale, rep.spec.deposition_friction, rep.spec.seed,
+        st.sand_pressure_pa * 1e-3, st.face_pressure_pa * 1e-3, st.surface_m * 1e3,
+        m.internal_pressure_pa * 1e-3, m.sand_share_pa * 1e-3, m.sand_pressure_pa * 1e-3, m.face_pressure_pa * 1e-3,
+        100.0 * rep.face_pressure_drop().unwrap_or(f64::NAN), m.head_receding_m * 1e3,
+        m.max_von_mises_pa * 1e-6, rep.wall_s
+    );
+    Ok(())
+}

@@ -1,0 +1,66 @@
+//! The zone's own pressure–diameter curve with no sand around it, from the
+//! same FEM skin (head held in place): what the balloon experiment
+//! subtracts as its h = 0 run. The sand's share of the internal pressure,
+//! Δp_i = p_i − p_free(D), is the quantity the experiment's p_e measures;
+//! the contact pressure averaged over the whole skin (`Sample`'s p_e) is
+//! another, smaller one (it counts the end regions that barely move).
+
+use anyhow::{ensure, Result};
+
+use super::scenario::ScenarioSpec;
+use crate::fem::{Ends, Skin, SkinSpec};
+
+/// Pressure steps of the curve (Pa).
+const STEP_PA: f64 = 50.0;
+
+/// p_free(D) of the scenario's zone, sampled by quasi-static relaxation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FreeCurve {
+    /// (outer diameter at mid-length (m), internal pressure (Pa)), D
+    /// increasing.
+    points: Vec<(f64, f64)>,
+}
+
+impl FreeCurve {
+    /// The curve of `spec`'s skin from rest to past its final diameter.
+    pub fn of(spec: &ScenarioSpec) -> Result<FreeCurve> {
+        let (around, along) = spec.skin_mesh;
+        let mut skin = Skin::new(
+            spec.skin_law(),
+            &SkinSpec::paper(around, along),
+            Ends::Clamped,
+        )?;
+        let mut points = vec![(skin.outer_diameter_at_mid_length_m(), 0.0)];
+        while points
+            .last()
+            .is_some_and(|p| p.0 < spec.final_diameter_m + 0.5e-3)
+        {
+            let p = points.len() as f64 * STEP_PA;
+            ensure!(
+                p < 50e3,
+                "the free skin did not reach {:.1} mm below 50 kPa",
+                spec.final_diameter_m * 1e3
+            );
+            skin.pressure_pa = p;
+            skin.relax(1e-7, 400_000)?;
+            let d = skin.outer_diameter_at_mid_length_m();
+            ensure!(
+                points.last().is_some_and(|q| d > q.0),
+                "the free skin's diameter stopped growing at {p} Pa (a limit point)"
+            );
+            points.push((d, p));
+        }
+        Ok(FreeCurve { points })
+    }
+
+    /// p_free (Pa) at outer diameter `d_m` (m), linear between the
+    /// relaxed states; `None` outside the sampled range.
+    pub fn pressure_pa(&self, d_m: f64) -> Option<f64> {
+        let k = self
+            .points
+            .windows(2)
+            .position(|w| d_m >= w[0].0 && d_m <= w[1].0)?;
+        let ((d0, p0), (d1, p1)) = (self.points[k], self.points[k + 1]);
+        Some(p0 + (p1 - p0) * (d_m - d0) / (d1 - d0))
+    }
+}
