@@ -49,14 +49,22 @@ enum Command {
     },
     /// The paper's scenario: the zone expanding from 18.7 to 25 mm in
     /// submerged coarse-grained DEM sand at a depth, coupled to the FEM
-    /// skin; writes samples.csv, pressures.svg, summary.txt and VTK frames.
+    /// skin; writes samples.csv, pressures.svg, head.svg, summary.txt and
+    /// VTK frames.
     Simulate {
         /// Depth of the zone's axis below the sand surface (mm).
         #[arg(long = "depth-mm", default_value_t = 40.0)]
         depth_mm: f64,
         /// Grain radius of the coarse-grained sand (mm).
-        #[arg(long = "grain-radius-mm", default_value_t = 1.5)]
+        #[arg(long = "grain-radius-mm", default_value_t = host_sim::simulate::scenario::DEFAULT_GRAIN_RADIUS_M * 1e3)]
         grain_radius_mm: f64,
+        /// Sand only up to this height above the axis (mm), the overburden
+        /// above as a surcharge layer: cheaper, weaker (no shear strength).
+        #[arg(long = "surcharge-above-mm")]
+        surcharge_above_mm: Option<f64>,
+        /// Seed of the grains' lattice jitter.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
         /// Folder for the results; default out/simulate-hDEPTH.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -65,8 +73,8 @@ enum Command {
         quick: bool,
     },
     /// Regenerate the stored FEM–DEM solver sand p_e(D, h) the tables use:
-    /// runs `simulate` at each depth (grain radius 1.5 mm, no VTK), bins p_e
-    /// over D and writes host-sim/data/sand/solver-pe.csv.
+    /// runs `simulate` at each depth (default grain radius, no VTK), bins the
+    /// sand's share of p_i over D and writes host-sim/data/sand/solver-pe.csv.
     SolverSand {
         /// The shorter solver case (`simulate --quick`).
         #[arg(long)]
@@ -209,16 +217,22 @@ fn run(cli: Cli) -> Result<()> {
         Command::Simulate {
             depth_mm,
             grain_radius_mm,
+            surcharge_above_mm,
+            seed,
             out,
             quick,
         } => {
             use host_sim::simulate::{simulate, Options, ScenarioSpec};
             let (h, r) = (depth_mm * 1e-3, grain_radius_mm * 1e-3);
-            let spec = if quick {
+            let mut spec = if quick {
                 ScenarioSpec::quick(h, r)
             } else {
                 ScenarioSpec::paper(h, r)
             };
+            if let Some(above) = surcharge_above_mm {
+                spec = spec.with_surcharge(above * 1e-3, 2);
+            }
+            spec.seed = seed;
             let out = out.unwrap_or_else(|| PathBuf::from(format!("out/simulate-h{depth_mm}mm")));
             let report = simulate(&Options {
                 spec,
@@ -243,7 +257,7 @@ fn run(cli: Cli) -> Result<()> {
             };
             regenerate(&opts, &out, |run| {
                 println!(
-                    "h = {} mm: final p_e {:.3} kPa at D {:.2} mm, {} bins from D {:.2} mm, wall {:.1} s",
+                    "h = {} mm: final p_e (the sand's share of p_i) {:.3} kPa at D {:.2} mm, {} bins from D {:.2} mm, wall {:.1} s",
                     run.depth_mm,
                     run.final_p_e_kpa,
                     run.final_diameter_mm,

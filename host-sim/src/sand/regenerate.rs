@@ -1,6 +1,10 @@
 //! `host-sim solver-sand`: runs the FEM–DEM solver ([`crate::simulate`])
 //! at each depth, bins each run's p_e over the outer diameter and writes
 //! the stored results [`SolverSand`] reads ([`super::solver::DATA_PATH`]).
+//! The p_e stored is the sand's share of the internal pressure,
+//! Δp_i = p_i − p_free(D) ([`crate::simulate::FreeCurve`]): what the
+//! balloon experiment's p_e measures, and what the tables add to the
+//! skin's own pressure.
 //!
 //! Binning is the smoothing: the solver's samples are single DEM steps,
 //! scattered by the few grains touching the skin, so each stored row is
@@ -19,7 +23,7 @@ use crate::simulate::{simulate, Options, ScenarioSpec};
 
 /// Grain radius of the solver runs (mm): the coarse-grained sand of
 /// `host-sim simulate`'s default case.
-pub const GRAIN_RADIUS_MM: f64 = 1.5;
+pub const GRAIN_RADIUS_MM: f64 = crate::simulate::scenario::DEFAULT_GRAIN_RADIUS_M * 1e3;
 
 /// Depths of the solver runs (mm): the paper's balloon experiment's.
 pub const DEPTHS_MM: [f64; 4] = [40.0, 50.0, 70.0, 100.0];
@@ -125,16 +129,17 @@ pub fn run_depth(depth_mm: f64, quick: bool, progress: bool) -> Result<DepthRun>
         .last()
         .with_context(|| format!("the solver run at h = {depth_mm} mm gave no samples"))?;
     let settled_mm = report.settled.sample.outer_diameter_m * 1e3;
+    let share = |s: &crate::coupling::Sample| report.sand_share_pa(s).unwrap_or(f64::NAN);
     let points: Vec<(f64, f64)> = report
         .samples
         .iter()
-        .map(|s| (s.outer_diameter_m * 1e3, s.sand_pressure_pa * 1e-3))
+        .map(|s| (s.outer_diameter_m * 1e3, share(s) * 1e-3))
         .collect();
     Ok(DepthRun {
         depth_mm,
         settled_diameter_mm: settled_mm,
         final_diameter_mm: last.outer_diameter_m * 1e3,
-        final_p_e_kpa: last.sand_pressure_pa * 1e-3,
+        final_p_e_kpa: share(last) * 1e-3,
         bins: bin_samples(&points, settled_mm, final_mm, BIN_WIDTH_MM),
         wall_s: t0.elapsed().as_secs_f64(),
     })
@@ -156,7 +161,7 @@ pub fn csv_text(runs: &[DepthRun], quick: bool) -> Result<String> {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "# p_e(D, h) of the FEM-DEM solver (host-sim simulate), binned over D; see README.md here."
+        "# p_e(D, h) of the FEM-DEM solver (host-sim simulate): the sand's share of p_i, binned over D; see README.md here."
     );
     let _ = writeln!(
         s,
