@@ -36,11 +36,13 @@ fn main() -> Result<()> {
     let m = rep.final_means().context("no samples")?;
     let st = &rep.settled;
     println!(
-        "h {:>3.0} above {:.0} r {:.2} mu_r {:.2} wall {:.2} skin {:.1} dep {:.2} seed {} | settled p_e {:.3} p_h {:.3} surface {:.1} | final p_i {:.3} dp_i {:.3} p_e {:.3} p_h {:.3} drop {:5.1}% D_r {:.2} vm {:.4} | {:.0} s",
-        h * 1e3, rep.spec.above_m * 1e3, r * 1e3, rep.spec.rolling_friction, rep.spec.wall_friction, rep.spec.skin_stiffness_scale, rep.spec.deposition_friction, rep.spec.seed,
+        "h {:>3.0} n {} above {:.0} r {:.2} mu_r {:.2} wall {:.2} skin {:.1} dep {:.2} seed {} | settled p_e {:.3} p_h {:.3} surface {:.1} | final p_i {:.3} dp_i {:.3} p_e {:.3} p_h {:.3} drop {:5.1}% (>=22mm {:5.1}%) D_r {:.2} vm {:.4} | {:.0} s",
+        h * 1e3, rep.grains.0 + rep.grains.1, rep.spec.above_m * 1e3, r * 1e3, rep.spec.rolling_friction, rep.spec.wall_friction, rep.spec.skin_stiffness_scale, rep.spec.deposition_friction, rep.spec.seed,
         st.sand_pressure_pa * 1e-3, st.face_pressure_pa * 1e-3, st.surface_m * 1e3,
         m.internal_pressure_pa * 1e-3, m.sand_share_pa * 1e-3, m.sand_pressure_pa * 1e-3, m.face_pressure_pa * 1e-3,
-        100.0 * rep.face_pressure_drop().unwrap_or(f64::NAN), m.head_receding_m * 1e3,
+        100.0 * rep.face_pressure_drop().unwrap_or(f64::NAN),
+        100.0 * rep.face_pressure_drop_beyond(22e-3).unwrap_or(f64::NAN),
+        m.head_receding_m * 1e3,
         m.max_von_mises_pa * 1e-6, rep.wall_s
     );
     Ok(())

@@ -257,12 +257,13 @@ fn run(cli: Cli) -> Result<()> {
             };
             regenerate(&opts, &out, |run| {
                 println!(
-                    "h = {} mm: final p_e (the sand's share of p_i) {:.3} kPa at D {:.2} mm, {} bins from D {:.2} mm, wall {:.1} s",
+                    "h = {} mm: final p_e (the sand's share of p_i) {:.3} kPa at D {:.2} mm, {} bins from D {:.2} mm, {} grains, wall {:.1} s",
                     run.depth_mm,
                     run.final_p_e_kpa,
                     run.final_diameter_mm,
                     run.bins.len(),
                     run.settled_diameter_mm,
+                    run.grains,
                     run.wall_s
                 );
             })?;

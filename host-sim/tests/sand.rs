@@ -240,6 +240,7 @@ fn written_data_read_back_with_the_solvers_unit_weight() {
         settled_diameter_mm: 18.6,
         final_diameter_mm: 25.0,
         final_p_e_kpa: bins.last().map_or(0.0, |b| b.p_e_kpa),
+        grains: 100,
         bins,
         wall_s: 1.0,
     };
@@ -254,9 +255,9 @@ fn written_data_read_back_with_the_solvers_unit_weight() {
     ];
     let text = csv_text(&runs, true).unwrap();
     let sand = SolverSand::parse(&text, "written.csv").unwrap();
-    // γ' = 0.6·(2920 − 1025)·9.81 N/m³ = 11153.97 N/m³, stated in kPa/mm.
+    // γ' = 0.56·(2920 − 1025)·9.81 N/m³ = 10410.372 N/m³, stated in kPa/mm.
     let g = spec(40.0, true).buoyant_unit_weight_n_m3() * 1e-6;
-    assert!((g - 0.011_153_97).abs() < 1e-12);
+    assert!((g - 0.010_410_372).abs() < 1e-12);
     assert!((sand.unit_weight_kpa_per_mm() - g).abs() < 1e-12);
     assert_eq!(sand.curves().len(), 2);
     assert_eq!(sand.curves()[1].diameters_mm, [18.6, 24.95]);

@@ -98,6 +98,8 @@ pub struct DepthRun {
     pub final_diameter_mm: f64,
     /// Last sample's p_e (kPa).
     pub final_p_e_kpa: f64,
+    /// Grains in the run (slab and surcharge).
+    pub grains: usize,
     /// The binned p_e.
     pub bins: Vec<Bin>,
     /// Wall time of the run (s).
@@ -140,6 +142,7 @@ pub fn run_depth(depth_mm: f64, quick: bool, progress: bool) -> Result<DepthRun>
         settled_diameter_mm: settled_mm,
         final_diameter_mm: last.outer_diameter_m * 1e3,
         final_p_e_kpa: share(last) * 1e-3,
+        grains: report.grains.0 + report.grains.1,
         bins: bin_samples(&points, settled_mm, final_mm, BIN_WIDTH_MM),
         wall_s: t0.elapsed().as_secs_f64(),
     })

@@ -2,12 +2,14 @@
 //!
 //! The expansion zone (D0 18.7 mm → 25 mm over 20 mm) in submerged,
 //! coarse-grained sand at a given depth: [`scenario`] builds the bed (skin,
-//! front face, box walls, grains, surcharge layer for the overburden),
+//! free head with its front face, box walls, the sand column),
 //! [`run`] settles it and inflates the zone by injected volume, [`output`]
 //! writes the samples (CSV), the pressures against D (SVG) and VTK frames.
 //!
-//! Not yet: the head receding distance D_r (the front face is fixed), and
-//! any calibration against the paper (see `host-sim/README-simulate.md`).
+//! [`free_skin`] gives the zone's pressure with no sand, so a run reports
+//! the sand's share of p_i as the balloon experiment measures it. The
+//! calibration and the validation against the paper are in
+//! `host-sim/README-simulate.md`.
 
 pub mod free_skin;
 pub mod output;
@@ -80,6 +82,21 @@ impl Report {
         Some(s.internal_pressure_pa - self.free.pressure_pa(s.outer_diameter_m)?)
     }
 
+    /// Drop of the front-face pressure from the settled mean to its mean
+    /// over the samples with D ≥ `from_m` (fraction of the settled value):
+    /// the paper reads its drop as flat past D ≈ 22 mm.
+    pub fn face_pressure_drop_beyond(&self, from_m: f64) -> Option<f64> {
+        let p0 = self.settled.face_pressure_pa;
+        let tail: Vec<f64> = self
+            .samples
+            .iter()
+            .filter(|s| s.outer_diameter_m >= from_m)
+            .filter_map(|s| s.face_pressure_pa)
+            .collect();
+        let p1 = tail.iter().sum::<f64>() / tail.len() as f64;
+        (p0 > 0.0 && !tail.is_empty()).then(|| 1.0 - p1 / p0)
+    }
+
     /// Drop of the front-face pressure from the settled mean to the final
     /// mean (fraction of the settled value).
     pub fn face_pressure_drop(&self) -> Option<f64> {
@@ -119,7 +136,7 @@ impl Report {
         if let (Some(l), Some(m)) = (self.last(), self.final_means()) {
             let _ = writeln!(
                 s,
-                "final (means over D ≥ {:.2} mm, {} samples): p_i {:.3} kPa, sand's share of it Δp_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa (drop {:.1} % from settled), D_r {:.2} mm, max von Mises {:.4} MPa",
+                "final (means over D ≥ {:.2} mm, {} samples): p_i {:.3} kPa, sand's share of it Δp_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa (drop {:.1} % from settled; {:.1} % over D ≥ {:.0} mm), D_r {:.2} mm, max von Mises {:.4} MPa",
                 (l.outer_diameter_m - FINAL_WINDOW_M) * 1e3,
                 m.samples,
                 m.internal_pressure_pa * 1e-3,
@@ -127,6 +144,8 @@ impl Report {
                 m.sand_pressure_pa * 1e-3,
                 m.face_pressure_pa * 1e-3,
                 100.0 * self.face_pressure_drop().unwrap_or(f64::NAN),
+                100.0 * self.face_pressure_drop_beyond(FACE_DROP_FROM_M).unwrap_or(f64::NAN),
+                FACE_DROP_FROM_M * 1e3,
                 m.head_receding_m * 1e3,
                 m.max_von_mises_pa * 1e-6,
             );
@@ -142,6 +161,10 @@ impl Report {
 
 /// Width of the diameter window the final means are taken over (m).
 pub const FINAL_WINDOW_M: f64 = 0.3e-3;
+
+/// Diameter past which the paper reads the front-face pressure as
+/// dropped and flat (m).
+pub const FACE_DROP_FROM_M: f64 = 22e-3;
 
 /// Means over the last [`FINAL_WINDOW_M`] of the expansion.
 #[derive(Clone, Copy, Debug, PartialEq)]
