@@ -112,3 +112,27 @@ fn the_free_skin_curve_is_the_relaxed_skin_without_sand() {
         );
     }
 }
+
+#[test]
+fn impossible_cases_are_refused_with_what_is_wrong() {
+    let err = |spec: ScenarioSpec| host_sim::simulate::build(&spec).unwrap_err().to_string();
+    let e = err(ScenarioSpec::paper(15e-3, 1.5e-3));
+    assert!(
+        e.contains("depth 15 mm") && e.contains("radius 12.5 mm"),
+        "{e}"
+    );
+    let e = err(ScenarioSpec::paper(40e-3, 0.0));
+    assert!(e.contains("grain radius must be positive"), "{e}");
+    let e = err(ScenarioSpec::paper(30e-3, 1.5e-3).with_surcharge(40e-3, 2));
+    assert!(e.contains("depth 30 mm") && e.contains("40 mm"), "{e}");
+    let e = err(ScenarioSpec {
+        rolling_friction: 2.0,
+        ..ScenarioSpec::paper(40e-3, 1.5e-3)
+    });
+    assert!(e.contains("rolling friction 2"), "{e}");
+    let e = err(ScenarioSpec {
+        skin_stiffness_scale: 0.0,
+        ..ScenarioSpec::paper(40e-3, 1.5e-3)
+    });
+    assert!(e.contains("skin stiffness scale 0"), "{e}");
+}

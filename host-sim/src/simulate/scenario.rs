@@ -216,6 +216,12 @@ impl ScenarioSpec {
             self.depth_m * 1e3
         );
         ensure!(
+            self.depth_m >= 0.5 * self.final_diameter_m + 2.0 * self.grain_radius_m,
+            "depth {} mm leaves the expanded zone (radius {} mm) under less than a grain of sand",
+            self.depth_m * 1e3,
+            0.5 * self.final_diameter_m * 1e3
+        );
+        ensure!(
             self.grain_radius_m <= 3e-3,
             "grain radius {} mm too coarse for the 7.5 mm gap below the zone",
             self.grain_radius_m * 1e3
