@@ -76,7 +76,8 @@ fn step_skin(out_dir: &Path, report: &mut DemoReport) -> Result<()> {
 }
 
 fn step_pressure(out_dir: &Path, report: &mut DemoReport) -> Result<()> {
-    let model = SkinSandModel::paper_default();
+    // The firmware table's model: the skin and the solver's stored sand.
+    let model = SkinSandModel::paper_solver(&crate::repo_root())?;
     let d0 = model.tube.geometry.outer_diameter_mm;
     let depths_mm = [0.0, 40.0, 50.0, 70.0, 100.0];
     let diameters: Vec<f64> = (0..=63).map(|i| d0 + 0.1 * f64::from(i)).collect();
@@ -95,8 +96,9 @@ fn step_pressure(out_dir: &Path, report: &mut DemoReport) -> Result<()> {
     report.files.push(path);
 
     let membrane = model.membrane_kpa(BALLOON_FINAL_DIAMETER_MM)?;
-    let mut line =
-        format!("p_membrane(25 mm) = {membrane:.2} kPa; p_e at 25 mm vs balloon experiment:");
+    let mut line = format!(
+        "p_membrane(25 mm) = {membrane:.2} kPa; solver p_e at 25 mm vs balloon experiment:"
+    );
     for point in BALLOON_TABLE {
         let pe = model
             .sand

@@ -51,7 +51,7 @@ pub struct RigBasis {
     pub zone: ExpansionZone,
     /// p_membrane(D) of the rig's skin (or the default skin) at scale 1.
     pub membrane: MembraneCurve,
-    /// The sand law before the baseline's factors (balloon-calibrated N),
+    /// The sand law before the baseline's factors (N fitted to the solver),
     /// with this rig's densities, porosity and D0; `None` without `[sand]`.
     pub sand: Option<SandParams>,
     /// Syringe bore area (mm²).
@@ -80,15 +80,18 @@ impl RigBasis {
         };
         let membrane = MembraneCurve::sample(geometry, skin)
             .context("rig.toml [actuator]/[skin]: the skin tube")?;
-        let sand = rig.sand.as_ref().map(|s| {
-            let paper = ParametricSand::calibrated_to_balloon().params;
-            SandParams {
-                grain_density_kg_m3: s.grain_density_kg_m3,
-                fluid_density_kg_m3: rig.fluid.density_kg_m3,
-                porosity: s.porosity,
-                initial_diameter_mm: a.initial_diameter_mm,
-                ..paper
-            }
+        // The sand's base law: N fitted to the FEM–DEM solver's stored
+        // results, the same file the firmware table's sand comes from, so
+        // the emulated sand pushes back as the table expects.
+        let solver = crate::sand::SolverSand::committed()
+            .context("the committed solver sand the model's baseline is fitted to")?;
+        let paper = ParametricSand::fitted_to_solver(&solver).params;
+        let sand = rig.sand.as_ref().map(|s| SandParams {
+            grain_density_kg_m3: s.grain_density_kg_m3,
+            fluid_density_kg_m3: rig.fluid.density_kg_m3,
+            porosity: s.porosity,
+            initial_diameter_mm: a.initial_diameter_mm,
+            ..paper
         });
         Ok(Arc::new(RigBasis {
             rig: rig.clone(),

@@ -62,7 +62,8 @@ pub const BASELINE_PARAMS: [ParamSpec; 4] = [
         lower: 0.0,
         upper: 10.0,
         default: 1.0,
-        description: "factor on the sand's limit lateral coefficient N (balloon-calibrated)",
+        description:
+            "factor on the sand's limit lateral coefficient N (fitted to the solver's sand)",
     },
     ParamSpec {
         name: "sand_rise_mm",

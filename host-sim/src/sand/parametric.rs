@@ -106,6 +106,31 @@ impl ParametricSand {
         }
     }
 
+    /// The paper's sand with N fitted to the FEM–DEM solver's results
+    /// `solver`: least squares, equal weights, on its p_e at the balloon's
+    /// final diameter at each stored depth (the same fit as
+    /// [`Self::calibrated_to_balloon`], other data).
+    pub fn fitted_to_solver(solver: &super::SolverSand) -> Self {
+        let base = SandParams::paper_uncalibrated();
+        let points: Vec<BalloonPoint> = solver
+            .curves()
+            .iter()
+            .map(|c| BalloonPoint {
+                depth_mm: c.depth_mm,
+                external_pressure_kpa: solver
+                    .loading_pressure_kpa(BALLOON_FINAL_DIAMETER_MM, c.depth_mm),
+                sd_kpa: 1.0,
+            })
+            .collect();
+        let cal = calibrate_limit_coefficient(&base, &points, BALLOON_FINAL_DIAMETER_MM);
+        Self {
+            params: SandParams {
+                limit_coefficient: cal.limit_coefficient,
+                ..base
+            },
+        }
+    }
+
     /// K on the loading branch at diameter `diameter_mm` (≥ D0).
     pub fn loading_coefficient(&self, diameter_mm: f64) -> f64 {
         let p = &self.params;

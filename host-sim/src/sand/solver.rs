@@ -106,6 +106,16 @@ pub struct SolverSand {
 }
 
 impl SolverSand {
+    /// The committed results ([`DATA_PATH`]), compiled in: what the
+    /// emulator's plant and the workbench's baseline are fitted to (see
+    /// [`super::ParametricSand::fitted_to_solver`]), so they push back as
+    /// the firmware table (made from the same file) expects.
+    pub fn committed() -> Result<Self, SolverSandError> {
+        let mut sand = Self::parse(include_str!("../../data/sand/solver-pe.csv"), DATA_PATH)?;
+        sand.source = DATA_PATH.to_string();
+        Ok(sand)
+    }
+
     /// Reads the stored results under the repository root `repo_root`
     /// ([`DATA_PATH`]); the description names the file by that relative
     /// path, so it does not depend on where the repository is checked out.
