@@ -144,8 +144,6 @@ pub struct Head {
     /// Axial force on the head from outside the skin (N), e.g. the sand on
     /// its front face; set by the caller before each step.
     pub external_force_n: f64,
-    /// Held in place (for checks; the scenario leaves it free).
-    pub held: bool,
     /// Displacement D_r is measured from (m), e.g. where the head sat
     /// when the expansion began.
     pub origin_m: f64,
@@ -159,7 +157,6 @@ impl Head {
             displacement_m: 0.0,
             velocity_m_s: 0.0,
             external_force_n: 0.0,
-            held: false,
             origin_m: 0.0,
         }
     }
@@ -465,14 +462,10 @@ impl<S: StrainEnergy> Skin<S> {
         }
         if let Some(head) = &mut self.head {
             let ring = self.mesh.ring(self.mesh.along);
-            if head.held {
-                head.velocity_m_s = 0.0;
-            } else {
-                // The head and its ring move as one rigid body along z.
-                let m = head.mass_kg + ring.clone().map(|a| self.mass_kg[a]).sum::<f64>();
-                let f = head_n + head.external_force_n;
-                head.velocity_m_s = (head.velocity_m_s * (1.0 - c) + f * (dt_s / m)) / (1.0 + c);
-            }
+            // The head and its ring move as one rigid body along z.
+            let m = head.mass_kg + ring.clone().map(|a| self.mass_kg[a]).sum::<f64>();
+            let f = head_n + head.external_force_n;
+            head.velocity_m_s = (head.velocity_m_s * (1.0 - c) + f * (dt_s / m)) / (1.0 + c);
             head.displacement_m += head.velocity_m_s * dt_s;
             for a in ring {
                 self.position_m[a].z = self.mesh.rest_m[a].z + head.displacement_m;

@@ -121,7 +121,7 @@ impl Report {
         );
         let _ = writeln!(
             s,
-            "settled (means over its last quarter): support {:.4} N vs buoyant weight {:.4} N (floor {:.4} N), p_e {:.3} kPa, p_h {:.3} kPa; at its end: surface {:.1} mm above the axis (highest grain {:.1} mm), D {:.2} mm, p_i {:.3} kPa, kinetic energy {:.2e} J",
+            "settled (means over its last quarter): support {:.4} N vs buoyant weight {:.4} N (floor {:.4} N), p_e {:.3} kPa, p_h {:.3} kPa; at its end: surface {:.1} mm above the axis (highest grain {:.1} mm), head pushed back {:.2} mm, D {:.2} mm, p_i {:.3} kPa, kinetic energy {:.2e} J",
             st.support_n,
             st.buoyant_weight_n,
             st.floor_force_n,
@@ -129,6 +129,7 @@ impl Report {
             st.face_pressure_pa * 1e-3,
             st.surface_m * 1e3,
             st.slab_top_m * 1e3,
+            st.head_settling_m * 1e3,
             st.sample.outer_diameter_m * 1e3,
             st.sample.internal_pressure_pa * 1e-3,
             st.kinetic_energy_j
