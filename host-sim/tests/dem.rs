@@ -52,6 +52,28 @@ fn sphere_mass(m: &Material, r: f64) -> f64 {
     m.density_kg_m3 * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3)
 }
 
+/// A sphere of radius `r` (m) resting at its Hertz equilibrium overlap on
+/// a floor (z = 0) of the same material, moving along x at `v0` (m/s),
+/// with a 1.5e-5 s step.
+fn sphere_on_floor(mat: &Material, spec: &ContactSpec, r: f64, v0: f64) -> (Params, State) {
+    let mut params = Params::new(mat, spec, 1.5e-5).unwrap();
+    params
+        .walls
+        .push(Wall::plane(Vector3::zeros(), Vector3::z(), mat, mat, spec).unwrap());
+    let m = sphere_mass(mat, r);
+    let k = 4.0 / 3.0 * mat.effective_modulus_pa(mat) * r.sqrt();
+    let rest = (m * 9.81 / k).powf(2.0 / 3.0);
+    let mut p = Particles::new();
+    p.push(
+        Vector3::new(0.0, 0.0, r - rest),
+        Vector3::new(v0, 0.0, 0.0),
+        r,
+        mat.density_kg_m3,
+    )
+    .unwrap();
+    (params, State::new(p))
+}
+
 /// Hertz peak force and duration for effective E*, R*, m*, approach speed v.
 fn hertz_answers(e_star: f64, r_star: f64, m_star: f64, v: f64) -> (f64, f64) {
     let delta_max = (15.0 * m_star * v * v / (16.0 * e_star * r_star.sqrt())).powf(0.4);
@@ -491,24 +513,9 @@ fn sliding_sphere_ends_rolling_at_five_sevenths() {
         friction: 0.25,
         ..ContactSpec::default()
     };
-    let mut params = Params::new(&mat, &spec, 1.5e-5).unwrap();
-    params
-        .walls
-        .push(Wall::plane(Vector3::zeros(), Vector3::z(), &mat, &mat, &spec).unwrap());
     let r = 1.0e-3;
-    let m = sphere_mass(&mat, r);
-    let k = 4.0 / 3.0 * mat.effective_modulus_pa(&mat) * r.sqrt();
-    let rest = (m * 9.81 / k).powf(2.0 / 3.0);
-    let mut p = Particles::new();
     let v0 = 0.05;
-    p.push(
-        Vector3::new(0.0, 0.0, r - rest),
-        Vector3::new(v0, 0.0, 0.0),
-        r,
-        mat.density_kg_m3,
-    )
-    .unwrap();
-    let mut state = State::new(p);
+    let (params, mut state) = sphere_on_floor(&mat, &spec, r, v0);
     // Slip stops after v0 (2/7) / (μ g) ≈ 5.8 ms.
     for _ in 0..1_000 {
         step(&params, &mut state, &mut ()).unwrap();
@@ -533,25 +540,10 @@ fn constant_torque_rolling_resistance_decelerates_at_five_sevenths_mu_r_g() {
         friction: 0.5,
         rolling_friction: 0.1,
     };
-    let mut params = Params::new(&mat, &spec, 1.5e-5).unwrap();
-    params
-        .walls
-        .push(Wall::plane(Vector3::zeros(), Vector3::z(), &mat, &mat, &spec).unwrap());
     let r = 1.0e-3;
-    let m = sphere_mass(&mat, r);
-    let k = 4.0 / 3.0 * mat.effective_modulus_pa(&mat) * r.sqrt();
-    let rest = (m * 9.81 / k).powf(2.0 / 3.0);
-    let mut p = Particles::new();
     let v0 = 0.1;
-    p.push(
-        Vector3::new(0.0, 0.0, r - rest),
-        Vector3::new(v0, 0.0, 0.0),
-        r,
-        mat.density_kg_m3,
-    )
-    .unwrap();
-    p.angular_velocity_rad_s[0] = Vector3::new(0.0, v0 / r, 0.0);
-    let mut state = State::new(p);
+    let (params, mut state) = sphere_on_floor(&mat, &spec, r, v0);
+    state.particles.angular_velocity_rad_s[0] = Vector3::new(0.0, v0 / r, 0.0);
     let steps = 2_000;
     for _ in 0..steps {
         step(&params, &mut state, &mut ()).unwrap();

@@ -143,9 +143,13 @@ fn blocked_rigid_line_over_pressure_is_caught_and_vented() {
     let age = trace.scenario.plant.sensor.max_sample_age_ms();
     assert_fault(&o, Fault::OverPressure, age);
     assert_safe_after_fault(&trace);
-    // 2 mL/s into 0.0005 mL/kPa: 4000 kPa/s; the pump runs at most the
+    // The expansion rate into the rigid line's compliance (2 mL/s into
+    // 0.0005 mL/kPa: 4000 kPa/s); the pump runs at most the
     // detection bound plus the sample age past the limit.
-    let rate_kpa_per_ms = 2.0 / 0.0005 / 1000.0;
+    let sc = &trace.scenario;
+    let rate_kpa_per_ms =
+        f64::from(sc.params.expand_rate_ml_per_s) / sc.plant.line_compliance_ml_per_kpa / 1000.0;
+    assert!((rate_kpa_per_ms - 4.0).abs() < 1e-9, "{rate_kpa_per_ms}");
     let limit = o.over_limit.limit_kpa;
     assert!(o.over_limit.peak_kpa > limit);
     assert!(o.over_limit.peak_kpa <= limit + rate_kpa_per_ms * f64::from(10 + age));
