@@ -3,7 +3,7 @@
 //! the sand presses on the resting zone at the overburden's order, and the
 //! sand pressure rises as the zone expands to 25 mm.
 
-use host_sim::fem::{Ends, Skin, SkinSpec};
+use host_sim::fem::Ends;
 use host_sim::simulate::{simulate, FreeCurve, Options, ScenarioSpec};
 
 #[test]
@@ -94,13 +94,7 @@ fn the_free_skin_curve_is_the_relaxed_skin_without_sand() {
     // curve's relaxed states.
     for d in [21.0e-3, 24.0e-3, 25.0e-3] {
         let p = curve.pressure_pa(d).unwrap();
-        let (around, along) = spec.skin_mesh;
-        let mut skin = Skin::new(
-            spec.skin_law(),
-            &SkinSpec::paper(around, along),
-            Ends::Clamped,
-        )
-        .unwrap();
+        let mut skin = spec.skin(Ends::Clamped).unwrap();
         skin.pressure_pa = p;
         skin.relax(1e-7, 400_000).unwrap();
         let got = skin.outer_diameter_at_mid_length_m();

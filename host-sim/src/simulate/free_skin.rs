@@ -8,7 +8,7 @@
 use anyhow::{ensure, Result};
 
 use super::scenario::ScenarioSpec;
-use crate::fem::{Ends, Skin, SkinSpec};
+use crate::fem::Ends;
 
 /// Pressure steps of the curve (Pa).
 const STEP_PA: f64 = 50.0;
@@ -24,12 +24,7 @@ pub struct FreeCurve {
 impl FreeCurve {
     /// The curve of `spec`'s skin from rest to past its final diameter.
     pub fn of(spec: &ScenarioSpec) -> Result<FreeCurve> {
-        let (around, along) = spec.skin_mesh;
-        let mut skin = Skin::new(
-            spec.skin_law(),
-            &SkinSpec::paper(around, along),
-            Ends::Clamped,
-        )?;
+        let mut skin = spec.skin(Ends::Clamped)?;
         let mut points = vec![(skin.outer_diameter_at_mid_length_m(), 0.0)];
         while points
             .last()

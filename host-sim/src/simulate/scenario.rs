@@ -23,7 +23,7 @@ use rand::{RngExt, SeedableRng};
 
 use crate::coupling::{Coupling, FrontFace};
 use crate::dem::{ContactModel, ContactSpec, Material, Params, Particles, State, Wall};
-use crate::fem::{Ends, Skin, SkinSpec, VolumeControl};
+use crate::fem::{Ends, FemError, Skin, SkinSpec, VolumeControl};
 use crate::skin::{default_skin, StrainEnergy, Yeoh};
 
 /// Grain radius of the default coarse-grained sand (m): 1.5 mm, about 4
@@ -170,6 +170,13 @@ impl ScenarioSpec {
             c20_kpa: k * d.c20_kpa,
             c30_kpa: k * d.c30_kpa,
         }
+    }
+
+    /// The zone's skin of this case ([`ScenarioSpec::skin_law`] on the
+    /// paper's geometry, [`ScenarioSpec::skin_mesh`]) held by `ends`, at rest.
+    pub fn skin(&self, ends: Ends) -> Result<Skin<Yeoh>, FemError> {
+        let (around, along) = self.skin_mesh;
+        Skin::new(self.skin_law(), &SkinSpec::paper(around, along), ends)
     }
 
     /// Buoyant unit weight of the sand γ' = φ (ρ_s − ρ_w) g (N/m³).
@@ -358,8 +365,7 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
             .push(Wall::plane(point, normal, &mat, &mat, s)?);
     }
 
-    let (around, along) = spec.skin_mesh;
-    let mut skin = Skin::new(spec.skin_law(), &SkinSpec::paper(around, along), Ends::Head)?;
+    let mut skin = spec.skin(Ends::Head)?;
     skin.damping_per_s = 100.0;
     // The zone at rest (D0) holds its fluid volume while the bed settles
     // (the coelom is closed): the sand raises the pressure instead of
