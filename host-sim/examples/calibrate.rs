@@ -3,7 +3,7 @@
 //! calibrate -- DEPTH_MM RADIUS_MM ROLLING DEPOSITION [quick|full] [SEED] [ABOVE_MM]`.
 
 use anyhow::{Context, Result};
-use host_sim::simulate::{simulate, Options, ScenarioSpec, FACE_DROP_FROM_M};
+use host_sim::simulate::{simulate, Options, ScenarioSpec};
 
 fn main() -> Result<()> {
     let a: Vec<String> = std::env::args().skip(1).collect();
@@ -42,7 +42,7 @@ fn main() -> Result<()> {
         st.sand_pressure_pa * 1e-3, st.face_pressure_pa * 1e-3, st.surface_m * 1e3,
         m.internal_pressure_pa * 1e-3, m.sand_share_pa * 1e-3, m.sand_pressure_pa * 1e-3, m.face_pressure_pa * 1e-3,
         100.0 * rep.face_pressure_drop().unwrap_or(f64::NAN),
-        100.0 * rep.face_pressure_drop_beyond(FACE_DROP_FROM_M).unwrap_or(f64::NAN),
+        100.0 * rep.face_pressure_drop_beyond(rep.spec.face_drop_from_m()).unwrap_or(f64::NAN),
         m.head_receding_m * 1e3,
         m.max_von_mises_pa * 1e-6, rep.wall_s
     );

@@ -49,15 +49,25 @@ enum Command {
     },
     /// The paper's scenario: the zone expanding from 18.7 to 25 mm in
     /// submerged coarse-grained DEM sand at a depth, coupled to the FEM
-    /// skin; writes samples.csv, pressures.svg, head.svg, summary.txt and
-    /// VTK frames.
+    /// skin; or your own actuator and sand with --rig. Writes samples.csv,
+    /// pressures.svg, head.svg, summary.txt and VTK frames.
     Simulate {
         /// Depth of the zone's axis below the sand surface (mm).
         #[arg(long = "depth-mm", default_value_t = 40.0)]
         depth_mm: f64,
-        /// Grain radius of the coarse-grained sand (mm).
-        #[arg(long = "grain-radius-mm", default_value_t = host_sim::simulate::scenario::DEFAULT_GRAIN_RADIUS_M * 1e3)]
-        grain_radius_mm: f64,
+        /// Your set-up instead of the paper's: a rig.toml, or an experiment
+        /// folder holding one (shared/data-format.md): actuator, skin, sand,
+        /// fluid and box.
+        #[arg(long)]
+        rig: Option<PathBuf>,
+        /// Final outer diameter of the zone (mm); default 25 mm, or with
+        /// --rig the paper's stretch 25/18.7 of its initial diameter.
+        #[arg(long = "final-diameter-mm")]
+        final_diameter_mm: Option<f64>,
+        /// Grain radius of the coarse-grained sand (mm); default 1.5 mm, or
+        /// the rig's grains when coarser.
+        #[arg(long = "grain-radius-mm")]
+        grain_radius_mm: Option<f64>,
         /// Sand only up to this height above the axis (mm), the overburden
         /// above as a surcharge layer: cheaper, weaker (no shear strength).
         #[arg(long = "surcharge-above-mm")]
@@ -85,6 +95,14 @@ enum Command {
         /// Depths of the zone's axis (mm), comma-separated.
         #[arg(long = "depths-mm", value_delimiter = ',', default_values_t = host_sim::sand::regenerate::DEPTHS_MM)]
         depths_mm: Vec<f64>,
+        /// Your set-up instead of the paper's (a rig.toml or an experiment
+        /// folder); needs --out (the repository's file is the paper's).
+        #[arg(long, requires = "out")]
+        rig: Option<PathBuf>,
+        /// With --rig: final outer diameter of the zone (mm); default the
+        /// paper's stretch 25/18.7 of the rig's initial diameter.
+        #[arg(long = "final-diameter-mm", requires = "rig")]
+        final_diameter_mm: Option<f64>,
     },
     /// Benchmarks (`bench dem`: the DEM throughput problem of shared/bench).
     Bench {
@@ -181,6 +199,21 @@ enum BenchCommand {
     },
 }
 
+/// Reads the set-up `path` names: a rig.toml, or the one in an experiment
+/// folder; prints its warnings. Returns the rig and the path, for errors.
+fn read_rig(path: &std::path::Path) -> Result<(host_sim::experiment::Rig, String)> {
+    let file = if path.is_dir() {
+        path.join("rig.toml")
+    } else {
+        path.to_path_buf()
+    };
+    let (rig, warnings) = host_sim::experiment::Rig::read(&file)?;
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok((rig, file.display().to_string()))
+}
+
 fn default_repo_root() -> PathBuf {
     host_sim::repo_root()
 }
@@ -216,6 +249,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Simulate {
             depth_mm,
+            rig,
+            final_diameter_mm,
             grain_radius_mm,
             surcharge_above_mm,
             seed,
@@ -223,12 +258,32 @@ fn run(cli: Cli) -> Result<()> {
             quick,
         } => {
             use host_sim::simulate::{simulate, Options, ScenarioSpec};
-            let (h, r) = (depth_mm * 1e-3, grain_radius_mm * 1e-3);
+            let rig = rig.map(|p| read_rig(&p)).transpose()?;
+            let r = grain_radius_mm.map_or_else(
+                || {
+                    rig.as_ref().map_or(
+                        host_sim::simulate::scenario::DEFAULT_GRAIN_RADIUS_M,
+                        |(rig, _)| ScenarioSpec::grain_radius_for(rig),
+                    )
+                },
+                |r| r * 1e-3,
+            );
+            let h = depth_mm * 1e-3;
             let mut spec = if quick {
                 ScenarioSpec::quick(h, r)
             } else {
                 ScenarioSpec::paper(h, r)
             };
+            let final_m = final_diameter_mm.map(|d| d * 1e-3);
+            if let Some((rig, file)) = &rig {
+                let (with_rig, notes) = spec.with_rig(rig, file, final_m)?;
+                spec = with_rig;
+                for n in notes {
+                    eprintln!("note: {n}");
+                }
+            } else if let Some(d) = final_m {
+                spec.final_diameter_m = d;
+            }
             if let Some(above) = surcharge_above_mm {
                 spec = spec.with_surcharge(above * 1e-3, 2);
             }
@@ -246,14 +301,26 @@ fn run(cli: Cli) -> Result<()> {
             quick,
             out,
             depths_mm,
+            rig,
+            final_diameter_mm,
         } => {
-            use host_sim::sand::regenerate::{regenerate, RegenerateOptions};
+            use host_sim::sand::regenerate::{regenerate, RegenerateOptions, RigSetup};
             let out =
                 out.unwrap_or_else(|| default_repo_root().join(host_sim::sand::solver::DATA_PATH));
+            let rig = rig
+                .map(|p| {
+                    read_rig(&p).map(|(rig, file)| RigSetup {
+                        rig,
+                        file,
+                        final_diameter_mm,
+                    })
+                })
+                .transpose()?;
             let opts = RegenerateOptions {
                 depths_mm,
                 quick,
                 progress: true,
+                rig,
             };
             regenerate(&opts, &out, |run| {
                 println!(

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use host_sim::sand::regenerate::{bin_samples, csv_text, spec, Bin, DepthRun};
+use host_sim::sand::regenerate::{bin_samples, csv_text, spec, Bin, DepthRun, RegenerateOptions};
 use host_sim::sand::solver::{SolverSandError, DATA_PATH, UNIT_WEIGHT_KEY};
 use host_sim::sand::{ParametricSand, SandHistory, SandLaw, SolverSand};
 
@@ -253,7 +253,7 @@ fn written_data_read_back_with_the_solvers_unit_weight() {
         run(40.0, vec![bin(18.7, 0.3), bin(20.0, 0.7), bin(24.9, 0.8)]),
         run(70.0, vec![bin(18.6, 0.5), bin(24.95, 1.3)]),
     ];
-    let text = csv_text(&runs, true).unwrap();
+    let text = csv_text(&runs, &RegenerateOptions::paper(vec![40.0, 70.0], true)).unwrap();
     let sand = SolverSand::parse(&text, "written.csv").unwrap();
     // γ' = 0.56·(2920 − 1025)·9.81 N/m³ = 10410.372 N/m³, stated in kPa/mm.
     let g = spec(40.0, true).buoyant_unit_weight_n_m3() * 1e-6;

@@ -3,6 +3,7 @@
 //! the sand presses on the resting zone at the overburden's order, and the
 //! sand pressure rises as the zone expands to 25 mm.
 
+use host_sim::experiment::Rig;
 use host_sim::fem::Ends;
 use host_sim::simulate::{simulate, FreeCurve, Options, ScenarioSpec};
 
@@ -129,4 +130,171 @@ fn impossible_cases_are_refused_with_what_is_wrong() {
         ..ScenarioSpec::paper(40e-3, 1.5e-3)
     });
     assert!(e.contains("skin stiffness scale 0"), "{e}");
+}
+
+/// The paper's set-up as a rig.toml with the skin left to the solver's
+/// default and the sand the paper's.
+fn paper_rig_without_skin() -> Rig {
+    Rig {
+        skin: None,
+        ..Rig::paper_default()
+    }
+}
+
+#[test]
+fn the_papers_rig_gives_the_papers_case() {
+    let paper = ScenarioSpec::paper(50e-3, 1.5e-3);
+    let (spec, notes) = paper
+        .clone()
+        .with_rig(&paper_rig_without_skin(), "rig.toml", None)
+        .unwrap();
+    // Everything but the provenance and the float of 18.7 × 25/18.7.
+    assert!((spec.final_diameter_m - 25e-3).abs() < 1e-15);
+    assert_eq!(
+        ScenarioSpec {
+            setup: paper.setup.clone(),
+            final_diameter_m: paper.final_diameter_m,
+            ..spec.clone()
+        },
+        paper
+    );
+    assert_eq!(spec.setup, "rig rig.toml");
+    // What the rig says and the solver does not take as given is said.
+    for key in [
+        "grain_radius_mm = 0.36",
+        "porosity = 0.4",
+        "no [skin]",
+        "water_above_sand_mm",
+    ] {
+        assert!(notes.iter().any(|n| n.contains(key)), "{key}: {notes:?}");
+    }
+}
+
+#[test]
+fn a_rig_sets_the_actuator_the_sand_the_fluid_and_the_box() {
+    let mut rig = paper_rig_without_skin();
+    rig.actuator.initial_diameter_mm = 30.0;
+    rig.actuator.expansion_length_mm = 28.0;
+    rig.actuator.skin_thickness_mm = 2.2;
+    rig.skin = Some(host_sim::experiment::Skin {
+        c10_kpa: 3.0,
+        c20_kpa: 0.5,
+        c30_kpa: 0.02,
+    });
+    let sand = rig.sand.as_mut().unwrap();
+    sand.grain_density_kg_m3 = 2650.0;
+    sand.friction = 0.5;
+    sand.grain_radius_mm = 2.0;
+    rig.fluid.density_kg_m3 = 1000.0;
+    rig.container = None;
+    let r = ScenarioSpec::grain_radius_for(&rig);
+    assert_eq!(r, 2.0e-3, "grains coarser than the default are kept");
+    let (spec, _) = ScenarioSpec::paper(80e-3, r)
+        .with_rig(&rig, "my/rig.toml", None)
+        .unwrap();
+    assert_eq!(spec.tube.outer_diameter_mm, 30.0);
+    assert_eq!(spec.tube.length_mm, 28.0);
+    assert_eq!(spec.tube.wall_thickness_mm, 2.2);
+    // Measured skin: used as given, no calibration scale.
+    assert_eq!(spec.skin_stiffness_scale, 1.0);
+    assert_eq!(spec.skin_law().c20_kpa, 0.5);
+    assert!((spec.final_diameter_m - 30e-3 * 25.0 / 18.7).abs() < 1e-15);
+    // A wide tank: 3 final diameters, frictionless sides.
+    assert!((spec.box_width_m - 3.0 * spec.final_diameter_m).abs() < 1e-15);
+    assert_eq!(spec.wall_friction, 0.0);
+    assert_eq!(spec.friction, 0.5);
+    // γ' = 0.56 (2650 − 1000) 9.81 N/m³.
+    let g = 0.56 * 1650.0 * 9.81;
+    assert!((spec.buoyant_unit_weight_n_m3() - g).abs() < 1e-9);
+    // The skin the solver builds is the rig's tube.
+    let skin = spec.skin(Ends::Clamped).unwrap();
+    assert!((skin.outer_diameter_at_mid_length_m() - 30e-3).abs() < 1e-9);
+    // The sand ahead scales with a larger head, the floor with the zone.
+    assert!((spec.ahead_m - 24e-3).abs() < 1e-15);
+    assert!((spec.below_m - (0.5 * spec.final_diameter_m + 7.5e-3)).abs() < 1e-15);
+}
+
+#[test]
+fn a_rig_that_cannot_be_simulated_is_refused_naming_the_file_and_key() {
+    let base = ScenarioSpec::paper(40e-3, 1.5e-3);
+    let msg = |rig: &Rig, final_m: Option<f64>| {
+        format!(
+            "{:#}",
+            base.clone()
+                .with_rig(rig, "lab/rig.toml", final_m)
+                .unwrap_err()
+        )
+    };
+    let no_sand = Rig {
+        sand: None,
+        ..paper_rig_without_skin()
+    };
+    let e = msg(&no_sand, None);
+    assert!(e.contains("lab/rig.toml") && e.contains("[sand]"), "{e}");
+    let e = msg(&paper_rig_without_skin(), Some(18.0e-3));
+    assert!(
+        e.contains("lab/rig.toml") && e.contains("initial_diameter_mm = 18.7"),
+        "{e}"
+    );
+    let mut floating = paper_rig_without_skin();
+    floating.sand.as_mut().unwrap().grain_density_kg_m3 = 900.0;
+    let e = msg(&floating, None);
+    assert!(e.contains("lab/rig.toml") && e.contains("float"), "{e}");
+    let mut narrow = paper_rig_without_skin();
+    narrow.container.as_mut().unwrap().width_mm = 26.0;
+    let e = msg(&narrow, None);
+    assert!(e.contains("box width 26.0 mm"), "{e}");
+}
+
+#[test]
+fn a_tiny_bed_of_another_rig_carries_its_own_buoyant_weight() {
+    // Another actuator (D0 24 mm) in lighter grains in fresh water; the
+    // settled bed must carry N·(4/3)πr³(ρs − ρw)g from the rig's numbers.
+    let mut rig = paper_rig_without_skin();
+    rig.actuator.initial_diameter_mm = 24.0;
+    let sand = rig.sand.as_mut().unwrap();
+    sand.grain_density_kg_m3 = 2650.0;
+    rig.fluid.density_kg_m3 = 1000.0;
+    rig.container.as_mut().unwrap().width_mm = 50.0;
+    let r = 2.5e-3;
+    let base = ScenarioSpec {
+        settle_s: 0.4,
+        expansion_s: 0.08,
+        frames: 1,
+        samples: 10,
+        ..ScenarioSpec::quick(45e-3, r)
+    };
+    let (spec, _) = base.with_rig(&rig, "rig.toml", None).unwrap();
+    let spec = spec.with_surcharge(25e-3, 2);
+    let report = simulate(&Options {
+        spec: spec.clone(),
+        out: None,
+        progress: false,
+    })
+    .unwrap();
+    let text = report.text();
+    assert!(
+        text.contains("rig rig.toml") && text.contains("zone 24 → 32.09 mm"),
+        "{text}"
+    );
+    assert!(!text.contains("paper (4 cm)"), "{text}");
+    let st = report.settled;
+    let slab_weight = report.grains.0 as f64 * 4.0 / 3.0
+        * std::f64::consts::PI
+        * r.powi(3)
+        * (2650.0 - 1000.0)
+        * 9.81;
+    let surcharge_n = report.surcharge_pa * spec.box_width_m * spec.slab_length_m();
+    let want = slab_weight + surcharge_n;
+    assert!(
+        (st.buoyant_weight_n / want - 1.0).abs() < 1e-9,
+        "{} vs {want}",
+        st.buoyant_weight_n
+    );
+    let err = st.support_n / want - 1.0;
+    assert!(err < 0.0 && err > -0.06, "support off by {err}");
+    // The rig's zone rests at its D0 and expands to 24 × 25/18.7 mm.
+    assert!((st.sample.outer_diameter_m - 24e-3).abs() < 1.5e-3);
+    let last = report.last().unwrap();
+    assert!(last.outer_diameter_m >= spec.final_diameter_m);
 }

@@ -19,6 +19,7 @@ use anyhow::{ensure, Context, Result};
 use serde::Serialize;
 
 use super::solver::{SolverSand, COLUMNS, UNIT_WEIGHT_KEY};
+use crate::experiment::Rig;
 use crate::simulate::{simulate, Options, ScenarioSpec};
 
 /// Grain radius of the solver runs (mm): the coarse-grained sand of
@@ -85,6 +86,46 @@ pub struct RegenerateOptions {
     pub quick: bool,
     /// Show the solver's progress bar.
     pub progress: bool,
+    /// A user's set-up instead of the paper's.
+    pub rig: Option<RigSetup>,
+}
+
+/// A user's set-up for the solver runs ([`ScenarioSpec::with_rig`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RigSetup {
+    /// The rig.
+    pub rig: Rig,
+    /// Where it was read from (named in errors and in the data file).
+    pub file: String,
+    /// Final outer diameter (mm); `None`: the paper's stretch.
+    pub final_diameter_mm: Option<f64>,
+}
+
+impl RegenerateOptions {
+    /// The paper's set-up at `depths_mm`.
+    pub fn paper(depths_mm: Vec<f64>, quick: bool) -> RegenerateOptions {
+        RegenerateOptions {
+            depths_mm,
+            quick,
+            progress: false,
+            rig: None,
+        }
+    }
+
+    /// The solver case at `depth_mm`: [`spec`], with the rig's set-up.
+    pub fn spec(&self, depth_mm: f64) -> Result<ScenarioSpec> {
+        let Some(setup) = &self.rig else {
+            return Ok(spec(depth_mm, self.quick));
+        };
+        let (h, r) = (depth_mm * 1e-3, ScenarioSpec::grain_radius_for(&setup.rig));
+        let base = if self.quick {
+            ScenarioSpec::quick(h, r)
+        } else {
+            ScenarioSpec::paper(h, r)
+        };
+        let final_m = setup.final_diameter_mm.map(|d| d * 1e-3);
+        Ok(base.with_rig(&setup.rig, &setup.file, final_m)?.0)
+    }
 }
 
 /// One depth's run.
@@ -117,9 +158,10 @@ pub fn spec(depth_mm: f64, quick: bool) -> ScenarioSpec {
 }
 
 /// Runs the solver at `depth_mm` (writing no files) and bins its p_e.
-pub fn run_depth(depth_mm: f64, quick: bool, progress: bool) -> Result<DepthRun> {
+pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
     let t0 = Instant::now();
-    let spec = spec(depth_mm, quick);
+    let spec = opts.spec(depth_mm)?;
+    let progress = opts.progress;
     let final_mm = spec.final_diameter_m * 1e3;
     let report = simulate(&Options {
         spec,
@@ -148,14 +190,15 @@ pub fn run_depth(depth_mm: f64, quick: bool, progress: bool) -> Result<DepthRun>
     })
 }
 
-/// The data file's text for `runs` made with `quick`.
-pub fn csv_text(runs: &[DepthRun], quick: bool) -> Result<String> {
+/// The data file's text for `runs` made with `opts`.
+pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
+    let quick = opts.quick;
     let first = runs.first().context("no solver runs")?;
-    let probe = spec(first.depth_mm, quick);
+    let probe = opts.spec(first.depth_mm)?;
     // γ' in kPa per mm of depth (N/m³ × 1e-6); the same for every depth.
     let unit_weight = probe.buoyant_unit_weight_n_m3() * 1e-6;
     for r in runs {
-        let g = spec(r.depth_mm, quick).buoyant_unit_weight_n_m3() * 1e-6;
+        let g = opts.spec(r.depth_mm)?.buoyant_unit_weight_n_m3() * 1e-6;
         ensure!(
             g == unit_weight,
             "the solver's unit weight differs between depths"
@@ -166,13 +209,30 @@ pub fn csv_text(runs: &[DepthRun], quick: bool) -> Result<String> {
         s,
         "# p_e(D, h) of the FEM-DEM solver (host-sim simulate): the sand's share of p_i, binned over D; see README.md here."
     );
+    let rig_args = opts.rig.as_ref().map_or(String::new(), |r| {
+        let d = r
+            .final_diameter_mm
+            .map_or(String::new(), |d| format!(" --final-diameter-mm {d}"));
+        format!(" --rig {}{d} --out FILE", r.file)
+    });
     let _ = writeln!(
         s,
-        "# Regenerate: cargo sim solver-sand{}",
+        "# Regenerate: cargo sim solver-sand{}{rig_args}",
         if quick { " --quick" } else { "" }
     );
     let _ = writeln!(s, "# {UNIT_WEIGHT_KEY} = {unit_weight:.10}");
-    let _ = writeln!(s, "# grain_radius_mm = {GRAIN_RADIUS_MM}");
+    // Rounded to the nm: no binary noise in the header.
+    let r_mm = (probe.grain_radius_m * 1e9).round() / 1e6;
+    let _ = writeln!(s, "# grain_radius_mm = {r_mm}");
+    if opts.rig.is_some() {
+        let _ = writeln!(s, "# setup = {}", probe.setup);
+        let _ = writeln!(
+            s,
+            "# initial_diameter_mm = {}",
+            probe.tube.outer_diameter_mm
+        );
+        let _ = writeln!(s, "# final_diameter_mm = {}", probe.final_diameter_m * 1e3);
+    }
     let _ = writeln!(s, "# run = {}", if quick { "quick" } else { "full" });
     let _ = writeln!(s, "# seed = {}", probe.seed);
     let _ = writeln!(s, "# bin_width_mm = {BIN_WIDTH_MM}");
@@ -207,11 +267,11 @@ pub fn regenerate(
     depths.dedup();
     let mut runs = Vec::with_capacity(depths.len());
     for &h in &depths {
-        let run = run_depth(h, opts.quick, opts.progress)?;
+        let run = run_depth(opts, h)?;
         on_depth(&run);
         runs.push(run);
     }
-    let text = csv_text(&runs, opts.quick)?;
+    let text = csv_text(&runs, opts)?;
     SolverSand::parse(&text, &out.display().to_string())
         .context("the solver results do not make a valid data file")?;
     crate::files::write_atomic(out, text.as_bytes())

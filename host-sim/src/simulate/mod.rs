@@ -24,6 +24,7 @@ use anyhow::Result;
 
 use crate::coupling::Sample;
 use crate::fem::vtk::write_vtk;
+use crate::skin::membrane::TubeGeometry;
 pub use free_skin::FreeCurve;
 pub use run::Settled;
 pub use scenario::{build, Bed, ScenarioSpec};
@@ -111,8 +112,12 @@ impl Report {
         let st = &self.settled;
         let _ = writeln!(
             s,
-            "simulate: depth {:.0} mm, grain radius {:.2} mm, {} slab + {} surcharge grains, surcharge {:.0} Pa, dt {:.2e} s",
+            "simulate ({}): depth {:.0} mm, zone {} → {:.2} mm over {} mm, grain radius {:.2} mm, {} slab + {} surcharge grains, surcharge {:.0} Pa, dt {:.2e} s",
+            self.spec.setup,
             self.spec.depth_m * 1e3,
+            self.spec.tube.outer_diameter_mm,
+            self.spec.final_diameter_m * 1e3,
+            self.spec.tube.length_mm,
             self.spec.grain_radius_m * 1e3,
             self.grains.0,
             self.grains.1,
@@ -145,16 +150,18 @@ impl Report {
                 m.sand_pressure_pa * 1e-3,
                 m.face_pressure_pa * 1e-3,
                 100.0 * self.face_pressure_drop().unwrap_or(f64::NAN),
-                100.0 * self.face_pressure_drop_beyond(FACE_DROP_FROM_M).unwrap_or(f64::NAN),
-                FACE_DROP_FROM_M * 1e3,
+                100.0 * self.face_pressure_drop_beyond(self.spec.face_drop_from_m()).unwrap_or(f64::NAN),
+                self.spec.face_drop_from_m() * 1e3,
                 m.head_receding_m * 1e3,
                 m.max_von_mises_pa * 1e-6,
             );
         }
-        let _ = writeln!(
-            s,
-            "paper (4 cm): p_e 3.86 ± 1.24 kPa (experiment), p_i 4.06 kPa, p_h drop 97.7 %, max von Mises 0.042 MPa"
-        );
+        if self.spec.tube == TubeGeometry::PAPER {
+            let _ = writeln!(
+                s,
+                "paper (4 cm): p_e 3.86 ± 1.24 kPa (experiment), p_i 4.06 kPa, p_h drop 97.7 %, max von Mises 0.042 MPa"
+            );
+        }
         let _ = writeln!(s, "wall time {:.1} s", self.wall_s);
         s
     }
@@ -162,10 +169,6 @@ impl Report {
 
 /// Width of the diameter window the final means are taken over (m).
 pub const FINAL_WINDOW_M: f64 = 0.3e-3;
-
-/// Diameter past which the paper reads the front-face pressure as
-/// dropped and flat (m).
-pub const FACE_DROP_FROM_M: f64 = 22e-3;
 
 /// Means over the last [`FINAL_WINDOW_M`] of the expansion.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -16,14 +16,20 @@
 //! Walls: the floor, the z = 0 plane (the body behind the zone) and the far
 //! z end are frictionless (artificial cuts of a larger bed); the two x
 //! walls are the box's, with the grains' friction.
+//!
+//! [`ScenarioSpec::with_rig`] puts a user's set-up (an experiment folder's
+//! `rig.toml`) in place of the paper's: the actuator's tube and skin, the
+//! grains' density and friction, the fluid's density and the box width.
 
-use anyhow::{ensure, Result};
+use anyhow::{ensure, Context, Result};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 
 use crate::coupling::{Coupling, FrontFace};
 use crate::dem::{ContactModel, ContactSpec, Material, Params, Particles, State, Wall};
+use crate::experiment::Rig;
 use crate::fem::{Ends, FemError, Skin, SkinSpec, VolumeControl};
+use crate::skin::membrane::TubeGeometry;
 use crate::skin::{default_skin, StrainEnergy, Yeoh};
 
 /// Grain radius of the default coarse-grained sand (m): 1.5 mm, about 4
@@ -47,6 +53,17 @@ pub const ROLLING_FRICTION: f64 = 0.2;
 /// FEM–DEM 4.06 kPa (full runs, seed 1: 3.88 kPa at 2.3, 4.24 at 2.7;
 /// linear between them). See README-simulate.md.
 pub const SKIN_STIFFNESS_SCALE: f64 = 2.5;
+/// The paper's expansion: 18.7 → 25 mm outer diameter, a stretch of
+/// 25/18.7 that a rig's actuator gets by default.
+pub const PAPER_FINAL_DIAMETER_M: f64 = 25e-3;
+/// Where the paper reads its head-pressure drop as done: D ≈ 22 mm of its
+/// 18.7 → 25 mm expansion (m); other expansions use the same fraction
+/// ([`ScenarioSpec::face_drop_from_m`]).
+pub const PAPER_FACE_DROP_FROM_M: f64 = 22e-3;
+/// Sand beside the expanded zone when the rig names no box (a wide tank):
+/// the box is this many final diameters wide, with frictionless sides
+/// standing for the sand beyond (the paper's box is 1.6 of them).
+pub const WIDE_TANK_DIAMETERS: f64 = 3.0;
 /// Penalty bulk modulus of the zone's fluid (Pa): ≫ the few kPa reached.
 pub const FLUID_BULK_MODULUS_PA: f64 = 1e6;
 /// Standard gravity (m/s²).
@@ -99,6 +116,19 @@ pub struct ScenarioSpec {
     /// Inter-grain friction while the bed is deposited, the first half of
     /// settling (−); the paper's μ after that. Below μ it packs denser.
     pub deposition_friction: f64,
+    /// The skin tube at rest (outer diameter D0, thickness, zone length).
+    pub tube: TubeGeometry,
+    /// Measured Yeoh coefficients of the skin; `None`: the project's
+    /// default skin (see [`ScenarioSpec::skin_law`]).
+    pub skin_coefficients: Option<Yeoh>,
+    /// Grain material density ρ_s (kg/m³).
+    pub grain_density_kg_m3: f64,
+    /// Density of the water in the pores ρ_w (kg/m³): buoyancy.
+    pub water_density_kg_m3: f64,
+    /// Inter-grain Coulomb friction μ (−).
+    pub friction: f64,
+    /// Where the set-up comes from, for the summary (e.g. the rig's path).
+    pub setup: String,
 }
 
 impl ScenarioSpec {
@@ -117,7 +147,7 @@ impl ScenarioSpec {
             surcharge_rows: 0,
             settle_s: Self::column_settle_s(below_m + depth_m),
             expansion_s: 0.3,
-            final_diameter_m: 25e-3,
+            final_diameter_m: PAPER_FINAL_DIAMETER_M,
             skin_mesh: (24, 6),
             frames: 10,
             samples: 200,
@@ -126,7 +156,137 @@ impl ScenarioSpec {
             skin_stiffness_scale: SKIN_STIFFNESS_SCALE,
             wall_friction: FRICTION,
             deposition_friction: 0.0,
+            tube: TubeGeometry::PAPER,
+            skin_coefficients: None,
+            grain_density_kg_m3: GRAIN_DENSITY_KG_M3,
+            water_density_kg_m3: WATER_DENSITY_KG_M3,
+            friction: FRICTION,
+            setup: "the paper's set-up".to_string(),
         }
+    }
+
+    /// This case with the set-up of `rig` (read from `rig_file`, named in
+    /// errors) instead of the paper's: the actuator's tube; its skin's
+    /// Yeoh coefficients when `[skin]` gives them (used as measured, with
+    /// no stiffness scale), else the default skin with the paper's
+    /// calibrated scale; the grains' density and friction (`[sand]`,
+    /// required); the pore water's density; the box width (`[container]`;
+    /// absent: a wide tank, [`WIDE_TANK_DIAMETERS`] final diameters with
+    /// frictionless sides). The zone expands to `final_diameter_m` (m),
+    /// by default by the paper's stretch 25/18.7. The floor sits the
+    /// paper's 7.5 mm of sand below the expanded zone, the far end the
+    /// paper's 15 mm (or 0.8 D0 for larger heads) ahead of the face.
+    ///
+    /// Returns notes on what the rig says that the solver does not take
+    /// as given (the real grain radius, the porosity, the water above the
+    /// sand, the box length).
+    pub fn with_rig(
+        self,
+        rig: &Rig,
+        rig_file: &str,
+        final_diameter_m: Option<f64>,
+    ) -> Result<(ScenarioSpec, Vec<String>)> {
+        let sand = rig.sand.as_ref().with_context(|| {
+            format!("{rig_file}: [sand] is required to simulate the actuator in sand")
+        })?;
+        let a = &rig.actuator;
+        let tube = TubeGeometry {
+            outer_diameter_mm: a.initial_diameter_mm,
+            wall_thickness_mm: a.skin_thickness_mm,
+            length_mm: a.expansion_length_mm,
+        };
+        let d0 = tube.outer_diameter_mm * 1e-3;
+        let final_diameter_m = final_diameter_m.unwrap_or(
+            d0 * PAPER_FINAL_DIAMETER_M / (TubeGeometry::PAPER.outer_diameter_mm * 1e-3),
+        );
+        ensure!(
+            final_diameter_m > d0 && final_diameter_m.is_finite(),
+            "{rig_file}: [actuator] initial_diameter_mm = {} mm: the final diameter {:.2} mm must exceed it",
+            a.initial_diameter_mm,
+            final_diameter_m * 1e3
+        );
+        let skin_coefficients = rig.skin.as_ref().map(|k| Yeoh {
+            c10_kpa: k.c10_kpa,
+            c20_kpa: k.c20_kpa,
+            c30_kpa: k.c30_kpa,
+        });
+        let (box_width_m, wall_friction) = match &rig.container {
+            Some(c) => (c.width_mm * 1e-3, sand.friction),
+            None => (WIDE_TANK_DIAMETERS * final_diameter_m, 0.0),
+        };
+        let below_m = 0.5 * final_diameter_m + 7.5e-3;
+        let mut notes = vec![format!(
+            "{rig_file}: [sand] grain_radius_mm = {} mm: the DEM grains are {:.2} mm (coarse-grained)",
+            sand.grain_radius_mm,
+            self.grain_radius_m * 1e3
+        )];
+        notes.push(format!(
+            "{rig_file}: [sand] porosity = {}: the deposited spheres settle at their own solid fraction (about {:.2}); the bed is filled for that",
+            sand.porosity, self.packing
+        ));
+        notes.push(format!(
+            "{rig_file}: [fluid] water_above_sand_mm = {} mm: hydrostatic, it changes no effective stress",
+            rig.fluid.water_above_sand_mm
+        ));
+        if skin_coefficients.is_none() {
+            notes.push(format!(
+                "{rig_file}: no [skin]: the default skin × {} (the stiffness calibrated on the paper's case)",
+                self.skin_stiffness_scale
+            ));
+        }
+        if rig.container.is_none() {
+            notes.push(format!(
+                "{rig_file}: no [container] (a wide tank): the box is {WIDE_TANK_DIAMETERS} final diameters ({:.1} mm) wide with frictionless sides",
+                box_width_m * 1e3
+            ));
+        }
+        if let Some(c) = &rig.container {
+            notes.push(format!(
+                "{rig_file}: [container] length_mm = {} mm: the simulated slab is the zone plus the sand ahead of the head",
+                c.length_mm
+            ));
+        }
+        let spec = ScenarioSpec {
+            box_width_m,
+            ahead_m: self.ahead_m.max(0.8 * d0),
+            below_m,
+            settle_s: Self::column_settle_s(below_m + self.above_m),
+            final_diameter_m,
+            wall_friction,
+            skin_stiffness_scale: if skin_coefficients.is_some() {
+                1.0
+            } else {
+                self.skin_stiffness_scale
+            },
+            tube,
+            skin_coefficients,
+            grain_density_kg_m3: sand.grain_density_kg_m3,
+            water_density_kg_m3: rig.fluid.density_kg_m3,
+            friction: sand.friction,
+            setup: format!("rig {rig_file}"),
+            ..self
+        };
+        spec.validate()
+            .with_context(|| format!("{rig_file}: the set-up cannot be simulated"))?;
+        Ok((spec, notes))
+    }
+
+    /// Default DEM grain radius for `rig` (m): the coarse-grained
+    /// [`DEFAULT_GRAIN_RADIUS_M`], or the real grains when they are coarser.
+    pub fn grain_radius_for(rig: &Rig) -> f64 {
+        rig.sand.as_ref().map_or(DEFAULT_GRAIN_RADIUS_M, |s| {
+            DEFAULT_GRAIN_RADIUS_M.max(s.grain_radius_mm * 1e-3)
+        })
+    }
+
+    /// D from which the head-pressure drop is read as done (m): the
+    /// paper's 22 mm of 18.7 → 25 mm, as the same fraction of this
+    /// case's expansion.
+    pub fn face_drop_from_m(&self) -> f64 {
+        let paper_d0 = TubeGeometry::PAPER.outer_diameter_mm * 1e-3;
+        let f = (PAPER_FACE_DROP_FROM_M - paper_d0) / (PAPER_FINAL_DIAMETER_M - paper_d0);
+        let d0 = self.tube.outer_diameter_mm * 1e-3;
+        d0 + f * (self.final_diameter_m - d0)
     }
 
     /// A shorter run of the same case (expansion 0.15 s).
@@ -160,10 +320,11 @@ impl ScenarioSpec {
         0.15 + 2.5 * height_m
     }
 
-    /// The skin's law: the project's default Yeoh skin with every
-    /// coefficient times [`ScenarioSpec::skin_stiffness_scale`].
+    /// The skin's law: the measured coefficients, else the project's
+    /// default Yeoh skin, with every coefficient times
+    /// [`ScenarioSpec::skin_stiffness_scale`].
     pub fn skin_law(&self) -> Yeoh {
-        let d = default_skin();
+        let d = self.skin_coefficients.unwrap_or_else(default_skin);
         let k = self.skin_stiffness_scale;
         Yeoh {
             c10_kpa: k * d.c10_kpa,
@@ -172,16 +333,21 @@ impl ScenarioSpec {
         }
     }
 
-    /// The zone's skin of this case ([`ScenarioSpec::skin_law`] on the
-    /// paper's geometry, [`ScenarioSpec::skin_mesh`]) held by `ends`, at rest.
+    /// The zone's skin of this case ([`ScenarioSpec::skin_law`] on
+    /// [`ScenarioSpec::tube`], [`ScenarioSpec::skin_mesh`]) held by `ends`,
+    /// at rest.
     pub fn skin(&self, ends: Ends) -> Result<Skin<Yeoh>, FemError> {
         let (around, along) = self.skin_mesh;
-        Skin::new(self.skin_law(), &SkinSpec::paper(around, along), ends)
+        Skin::new(
+            self.skin_law(),
+            &SkinSpec::from_tube(&self.tube, around, along),
+            ends,
+        )
     }
 
     /// Buoyant unit weight of the sand γ' = φ (ρ_s − ρ_w) g (N/m³).
     pub fn buoyant_unit_weight_n_m3(&self) -> f64 {
-        self.packing * (GRAIN_DENSITY_KG_M3 - WATER_DENSITY_KG_M3) * GRAVITY_M_S2
+        self.packing * (self.grain_density_kg_m3 - self.water_density_kg_m3) * GRAVITY_M_S2
     }
 
     /// Vertical effective stress the surcharge layer applies on the slab
@@ -197,14 +363,25 @@ impl ScenarioSpec {
 
     /// Slab length along the axis: the zone plus the sand ahead (m).
     pub fn slab_length_m(&self) -> f64 {
-        SkinSpec::paper(3, 1).length_m + self.ahead_m
+        SkinSpec::from_tube(&self.tube, 3, 1).length_m + self.ahead_m
     }
 
     /// DEM time step (s): the throughput benchmark's 1.5e-5 s for 1 mm
-    /// grains, scaled with the radius (contact time ∝ r at equal
-    /// velocities and moduli).
+    /// grains of 2920 kg/m³, scaled as the contact time, ∝ r √ρ at equal
+    /// velocities and moduli.
     pub fn dt_s(&self) -> f64 {
         1.5e-5 * self.grain_radius_m / 1e-3
+            * (self.grain_density_kg_m3 / GRAIN_DENSITY_KG_M3).sqrt()
+    }
+
+    /// The grains' material: E = 1e7 Pa (soft, as the DEM benchmark's, for
+    /// a long time step), ν = 0.3, this case's grain density.
+    pub fn sand(&self) -> Material {
+        Material {
+            youngs_modulus_pa: 1.0e7,
+            poisson_ratio: 0.3,
+            density_kg_m3: self.grain_density_kg_m3,
+        }
     }
 
     fn validate(&self) -> Result<()> {
@@ -229,10 +406,41 @@ impl ScenarioSpec {
             self.depth_m * 1e3,
             0.5 * self.final_diameter_m * 1e3
         );
+        let gap_below = self.below_m - 0.5 * self.final_diameter_m;
         ensure!(
-            self.grain_radius_m <= 3e-3,
-            "grain radius {} mm too coarse for the 7.5 mm gap below the zone",
-            self.grain_radius_m * 1e3
+            self.grain_radius_m <= 0.4 * gap_below,
+            "grain radius {} mm too coarse for the {:.1} mm gap below the zone",
+            self.grain_radius_m * 1e3,
+            gap_below * 1e3
+        );
+        let gap_side = 0.5 * (self.box_width_m - self.final_diameter_m);
+        ensure!(
+            gap_side >= 2.0 * self.grain_radius_m,
+            "box width {:.1} mm leaves less than a grain ({:.2} mm) beside the expanded zone ({:.2} mm)",
+            self.box_width_m * 1e3,
+            2.0 * self.grain_radius_m * 1e3,
+            self.final_diameter_m * 1e3
+        );
+        let d0 = self.tube.outer_diameter_mm * 1e-3;
+        ensure!(
+            self.final_diameter_m > d0 && self.final_diameter_m.is_finite(),
+            "final diameter {:.2} mm must exceed the rest diameter {:.2} mm",
+            self.final_diameter_m * 1e3,
+            d0 * 1e3
+        );
+        ensure!(
+            pos(self.grain_density_kg_m3)
+                && self.water_density_kg_m3 >= 0.0
+                && self.water_density_kg_m3 < self.grain_density_kg_m3,
+            "grain density {} kg/m³ must be positive and exceed the water's {} kg/m³ (grains that float cannot settle)",
+            self.grain_density_kg_m3,
+            self.water_density_kg_m3
+        );
+        ensure!(
+            (0.0..=2.0).contains(&self.friction) && (0.0..=2.0).contains(&self.wall_friction),
+            "friction {} and wall friction {} must lie in 0..=2",
+            self.friction,
+            self.wall_friction
         );
         ensure!(
             pos(self.settle_s) && pos(self.expansion_s) && self.frames >= 1 && self.samples >= 1,
@@ -254,16 +462,6 @@ impl ScenarioSpec {
     }
 }
 
-/// The sand grains' material: E = 1e7 Pa (soft, as the DEM benchmark's,
-/// for a long time step), ν = 0.3, the paper's grain density.
-pub fn sand() -> Material {
-    Material {
-        youngs_modulus_pa: 1.0e7,
-        poisson_ratio: 0.3,
-        density_kg_m3: GRAIN_DENSITY_KG_M3,
-    }
-}
-
 /// The skin of law `law` as a contact material: E = 3μ, nearly
 /// incompressible, tissue density.
 pub fn skin_material(law: &Yeoh) -> Material {
@@ -282,7 +480,11 @@ pub fn grain_contacts(spec: &ScenarioSpec, friction: f64) -> Result<ContactModel
         rolling_friction: spec.rolling_friction,
         ..ContactSpec::default()
     };
-    Ok(ContactModel::hertz_mindlin(&sand(), &sand(), &contacts)?)
+    Ok(ContactModel::hertz_mindlin(
+        &spec.sand(),
+        &spec.sand(),
+        &contacts,
+    )?)
 }
 
 /// Wall indices in [`Params::walls`].
@@ -333,9 +535,9 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     spec.validate()?;
     let r = spec.grain_radius_m;
     let dt = spec.dt_s();
-    let mat = sand();
+    let mat = spec.sand();
     let rough = ContactSpec {
-        friction: FRICTION,
+        friction: spec.friction,
         rolling_friction: spec.rolling_friction,
         ..ContactSpec::default()
     };
@@ -349,7 +551,7 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     };
     let mut params = Params::new(&mat, &rough, dt)?;
     params.gravity_m_s2 = Vector3::new(0.0, -GRAVITY_M_S2, 0.0);
-    params.fluid_density_kg_m3 = WATER_DENSITY_KG_M3;
+    params.fluid_density_kg_m3 = spec.water_density_kg_m3;
     params.skin_m = 0.2 * r;
     let (w, zl) = (spec.box_width_m, spec.slab_length_m());
     let planes = [
@@ -444,7 +646,7 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     let mut particles = Particles::new();
     for (k, p) in positions.into_iter().enumerate() {
         let rho = if k < slab_grains {
-            GRAIN_DENSITY_KG_M3
+            spec.grain_density_kg_m3
         } else {
             heavy_density
         };
