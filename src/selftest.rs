@@ -1018,14 +1018,14 @@ fn fault_leak() -> Result<(), &'static str> {
                 "leak detected later than the stated bound",
             )?;
             ensure(
-                peak_kpa - out.telemetry.pressure_kpa > params.leak_max_drop_kpa,
+                peak_kpa - out.telemetry.pressure_kpa > params.leak_limit_kpa(peak_kpa),
                 "leak fault without the drop",
             )?;
             return expect_latched(&mut bench, false, |p| p.leak_ml_per_s = 0.0);
         }
         ensure(out.state == State::Hold, "left Hold while leaking")?;
         peak_kpa = peak_kpa.max(out.telemetry.pressure_kpa);
-        if peak_kpa - out.telemetry.pressure_kpa <= params.leak_max_drop_kpa {
+        if peak_kpa - out.telemetry.pressure_kpa <= params.leak_limit_kpa(peak_kpa) {
             healthy_ms = out.telemetry.t_ms;
         }
     }

@@ -77,7 +77,7 @@
 //! | `EndStop` | `empty` or `full` closed (injecting drives towards `empty`) | 1 period [10 ms] | active |
 //! | `VolumeLimit` | pump volume NaN, > `max_volume_ml` or < `min_volume_ml` | 1 period [10 ms] | all states |
 //! | `PumpStall` | in Expand, a block of `stall_volume_ml` pumped with a rise < `stall_min_rise_kpa` | 2 blocks + 2 periods [1020 ms] | Expand |
-//! | `Leak` | in Hold, pressure > `leak_max_drop_kpa` below the hold's peak | 1 period [10 ms] | Hold |
+//! | `Leak` | in Hold, pressure > max(`leak_max_drop_kpa`, `leak_max_drop_fraction` × peak) below the hold's peak | 1 period [10 ms] | Hold |
 //! | `DiameterMismatch` | in Expand, \|D_table − D_volume\| > `diameter_mismatch_mm` for ≥ `diameter_mismatch_ms` | `diameter_mismatch_ms` + 1 period [510 ms] | Expand |
 //! | `ControlOverrun` | step more than [`CONTROL_OVERRUN_LIMIT_MS`] (30 ms) after the previous one, or time going backwards | the late step itself [0 ms] | active |
 //!

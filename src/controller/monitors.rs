@@ -175,7 +175,7 @@ impl MismatchMonitor {
 }
 
 /// Leak: at constant volume the pressure must not fall more than
-/// `leak_max_drop_kpa` below the hold's peak.
+/// [`Params::leak_limit_kpa`] below the hold's peak.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LeakMonitor {
     peak_kpa: Option<f32>,
@@ -199,7 +199,7 @@ impl LeakMonitor {
             _ => pressure_kpa,
         };
         self.peak_kpa = Some(peak);
-        peak - pressure_kpa > params.leak_max_drop_kpa
+        peak - pressure_kpa > params.leak_limit_kpa(peak)
     }
 }
 
@@ -332,9 +332,25 @@ mod tests {
         let p = Params::DEFAULT;
         let mut l = LeakMonitor::default();
         l.reset(Some(3.0));
+        // Peak 4 kPa: the limit is a quarter of it, 1 kPa.
         assert!(!l.observe(4.0, &p));
-        assert!(!l.observe(2.5, &p));
-        assert!(l.observe(2.49, &p));
+        assert!(!l.observe(3.0, &p));
+        assert!(l.observe(2.99, &p));
+    }
+
+    #[test]
+    fn leak_limit_is_a_fraction_of_the_peak_above_a_floor() {
+        let p = Params::DEFAULT;
+        // 2.5 kPa (40 mm of sand): 0.625 kPa, where the old absolute
+        // 1.5 kPa let a leak take 1.28 kPa in one hold unseen.
+        assert_eq!(p.leak_limit_kpa(2.5), 0.625);
+        assert_eq!(p.leak_limit_kpa(8.0), 2.0);
+        // Low pressures (free water): the floor, 10× the sensor's noise.
+        assert_eq!(p.leak_limit_kpa(0.8), 0.3);
+        let mut l = LeakMonitor::default();
+        l.reset(Some(0.8));
+        assert!(!l.observe(0.5, &p));
+        assert!(l.observe(0.49, &p));
     }
 
     #[test]

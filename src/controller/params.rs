@@ -44,9 +44,18 @@ pub struct Params {
     /// slope falls below this fraction of its initial (largest) slope.
     /// Range 0–0.9; 0 disables the early stop.
     pub plateau_slope_fraction: f32,
-    /// Leak: largest pressure drop below the hold's peak at constant volume
-    /// (kPa). Range 0.05–50.
+    /// Leak: the smallest pressure drop below the hold's peak at constant
+    /// volume that counts as a leak (kPa), whatever the pressure: a floor
+    /// well above the sensor's noise. Range 0.05–50. The limit is the larger
+    /// of this and `leak_max_drop_fraction` of the peak
+    /// ([`Params::leak_limit_kpa`]).
     pub leak_max_drop_kpa: f32,
+    /// Leak: largest drop below the hold's peak as a fraction of that peak
+    /// (−). A pin-hole leak empties the head at a rate ∝ its pressure, so it
+    /// takes the same fraction of the pressure in a hold at any depth: an
+    /// absolute limit alone misses it wherever the working pressure is low.
+    /// Range 0.02–1.
+    pub leak_max_drop_fraction: f32,
     /// Stall: volume stepped with no pressure response before a fault (mL).
     /// Range 0.05–20.
     pub stall_volume_ml: f32,
@@ -109,6 +118,7 @@ pub enum ParamField {
     MaxVolumeMl,
     PlateauSlopeFraction,
     LeakMaxDropKpa,
+    LeakMaxDropFraction,
     StallVolumeMl,
     StallMinRiseKpa,
     DiameterMismatchMm,
@@ -150,7 +160,7 @@ const fn range(field: ParamField, min: f32, max: f32) -> FieldRange {
 
 /// Every field's accepted range, in declaration order; [`Params::validate`]
 /// walks this table.
-pub const RANGES: [FieldRange; 24] = [
+pub const RANGES: [FieldRange; 25] = [
     range(ParamField::DepthMm, 0.0, 200.0),
     range(ParamField::TargetDiameterMm, 10.0, 50.0),
     range(ParamField::ExpandRateMlPerS, 0.05, 10.0),
@@ -162,6 +172,7 @@ pub const RANGES: [FieldRange; 24] = [
     range(ParamField::MaxVolumeMl, 0.5, 50.0),
     range(ParamField::PlateauSlopeFraction, 0.0, 0.9),
     range(ParamField::LeakMaxDropKpa, 0.05, 50.0),
+    range(ParamField::LeakMaxDropFraction, 0.02, 1.0),
     range(ParamField::StallVolumeMl, 0.05, 20.0),
     range(ParamField::StallMinRiseKpa, 0.0, 20.0),
     range(ParamField::DiameterMismatchMm, 0.1, 20.0),
@@ -203,7 +214,8 @@ impl Params {
         max_pressure_kpa: 30.0,
         max_volume_ml: 10.0,
         plateau_slope_fraction: 0.1,
-        leak_max_drop_kpa: 1.5,
+        leak_max_drop_kpa: 0.3,
+        leak_max_drop_fraction: 0.25,
         stall_volume_ml: 1.0,
         stall_min_rise_kpa: 0.05,
         diameter_mismatch_mm: 2.5,
@@ -218,6 +230,18 @@ impl Params {
         sensor_frozen_ms: 300,
         sensor_bus_error_steps: 3,
     };
+
+    /// Largest pressure drop below a hold's peak `peak_kpa` that is not a
+    /// leak (kPa): `leak_max_drop_fraction` of the peak, at least
+    /// `leak_max_drop_kpa`.
+    pub fn leak_limit_kpa(&self, peak_kpa: f32) -> f32 {
+        let relative = self.leak_max_drop_fraction * peak_kpa;
+        if relative > self.leak_max_drop_kpa {
+            relative
+        } else {
+            self.leak_max_drop_kpa
+        }
+    }
 
     /// The value of `field` as f32 (integer fields convert exactly).
     pub fn get(&self, field: ParamField) -> f32 {
@@ -234,6 +258,7 @@ impl Params {
             ParamField::MaxVolumeMl => self.max_volume_ml,
             ParamField::PlateauSlopeFraction => self.plateau_slope_fraction,
             ParamField::LeakMaxDropKpa => self.leak_max_drop_kpa,
+            ParamField::LeakMaxDropFraction => self.leak_max_drop_fraction,
             ParamField::StallVolumeMl => self.stall_volume_ml,
             ParamField::StallMinRiseKpa => self.stall_min_rise_kpa,
             ParamField::DiameterMismatchMm => self.diameter_mismatch_mm,
@@ -266,6 +291,7 @@ impl Params {
             ParamField::MaxVolumeMl => self.max_volume_ml = value,
             ParamField::PlateauSlopeFraction => self.plateau_slope_fraction = value,
             ParamField::LeakMaxDropKpa => self.leak_max_drop_kpa = value,
+            ParamField::LeakMaxDropFraction => self.leak_max_drop_fraction = value,
             ParamField::StallVolumeMl => self.stall_volume_ml = value,
             ParamField::StallMinRiseKpa => self.stall_min_rise_kpa = value,
             ParamField::DiameterMismatchMm => self.diameter_mismatch_mm = value,

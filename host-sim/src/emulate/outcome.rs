@@ -413,14 +413,15 @@ pub fn reference_ms(trace: &Trace, reference: Reference, detected_ms: Option<u32
 }
 
 /// First ms in `[from, to)` where the sensed pressure (noise-free) is more
-/// than `leak_max_drop_kpa` below its peak since `from`.
+/// than the controller's leak limit (`Params::leak_limit_kpa` of the
+/// peak) below its peak since `from`.
 fn hold_drop_ms(trace: &Trace, from: u32, to: u32) -> Option<u32> {
-    let limit = f64::from(trace.scenario.params.leak_max_drop_kpa);
-    let mut peak = f64::NEG_INFINITY;
+    let params = &trace.scenario.params;
+    let mut peak = f32::NEG_INFINITY;
     for t in from..to {
-        let p = f64::from(*trace.sensed_kpa_ms.get(t as usize)?);
+        let p = *trace.sensed_kpa_ms.get(t as usize)?;
         peak = peak.max(p);
-        if peak - p > limit {
+        if peak - p > params.leak_limit_kpa(peak) {
             return Some(t);
         }
     }

@@ -53,7 +53,8 @@ pub enum Reference {
     /// `max_pressure_kpa`.
     OverLimit,
     /// The first millisecond, during a hold, the true line pressure fell
-    /// more than `leak_max_drop_kpa` below that hold's peak.
+    /// more than the controller's leak limit (`Params::leak_limit_kpa`)
+    /// below that hold's peak.
     HoldDrop,
     /// The first millisecond a pump end-stop switch was closed.
     EndStopClosed,
@@ -233,12 +234,12 @@ pub fn named(name: &str) -> Result<Scenario> {
         ),
         "leak" => Scenario {
             name: name.into(),
-            summary: "a pin-hole leak (0.4 mL/s per kPa): the pressure decays during the hold"
+            summary: "a pin-hole leak (0.2 mL/s per kPa): the pressure decays during the hold"
                 .into(),
             depth_mm: 40.0,
             params: params(40.0, 5),
             plant: PlantConfig {
-                effects: vec![EffectInstance::new("leak", &[("ml_per_s_per_kpa", 0.4)])?],
+                effects: vec![EffectInstance::new("leak", &[("ml_per_s_per_kpa", 0.2)])?],
                 ..plant()
             },
             injections: vec![],
