@@ -36,6 +36,19 @@ enum Command {
         /// Only compare with the committed file; fail if it is stale.
         #[arg(long)]
         check: bool,
+        /// Your actuator instead of the paper's (a rig.toml or an experiment
+        /// folder), in the sand of --solver-sand: the table for a firmware
+        /// driving that actuator.
+        #[arg(long, requires = "solver_sand")]
+        rig: Option<PathBuf>,
+        /// With --rig: the solver results for that rig
+        /// (`solver-sand --rig ... --out FILE`).
+        #[arg(long = "solver-sand", requires = "rig")]
+        solver_sand: Option<PathBuf>,
+        /// File to write; default: the firmware's src/table/generated.rs
+        /// under --repo.
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Fit neo-Hookean, Mooney–Rivlin and Yeoh laws to a uniaxial test CSV
     /// (strain + cauchy_stress_kpa or nominal_stress_kpa); writes
@@ -230,9 +243,33 @@ fn run(cli: Cli) -> Result<()> {
                 println!("  {}", file.display());
             }
         }
-        Command::Tables { repo, check } => {
-            let model = host_sim::physics_model(&repo)?;
-            let (path, outcome) = host_sim::tables::regenerate(&repo, &*model, check)?;
+        Command::Tables {
+            repo,
+            check,
+            rig,
+            solver_sand,
+            out,
+        } => {
+            use host_sim::tables::{regenerate_at, TableSpec, DEFAULT_COMMAND, GENERATED_PATH};
+            let out = out.unwrap_or_else(|| repo.join(GENERATED_PATH));
+            let (path, outcome) = match (rig, solver_sand) {
+                (Some(rig_path), Some(sand_path)) => {
+                    let (rig, file) = read_rig(&rig_path)?;
+                    let sand = host_sim::sand::SolverSand::load(&sand_path)?;
+                    let model =
+                        host_sim::pressure_model::SkinSandModel::for_rig(&rig, &file, sand)?;
+                    let command = format!(
+                        "{DEFAULT_COMMAND} --rig {} --solver-sand {}",
+                        rig_path.display(),
+                        sand_path.display()
+                    );
+                    regenerate_at(&out, &TableSpec::for_rig(&rig), &model, check, &command)?
+                }
+                _ => {
+                    let model = host_sim::physics_model(&repo)?;
+                    regenerate_at(&out, &TableSpec::default(), &*model, check, DEFAULT_COMMAND)?
+                }
+            };
             println!("{}: {:?}", path.display(), outcome);
         }
         Command::FitSkin { file, out } => {

@@ -6,10 +6,12 @@
 
 use std::path::Path;
 
-use anyhow::Result;
+use anyhow::{ensure, Context, Result};
+
+use crate::experiment::Rig;
 
 use crate::sand::{ParametricSand, SandLaw, SolverSand};
-use crate::skin::membrane::{Ends, InflationState, Tube};
+use crate::skin::membrane::{Ends, InflationState, Tube, TubeGeometry};
 use crate::skin::Yeoh;
 use crate::tables::PressureModel;
 
@@ -51,6 +53,38 @@ impl SkinSandModel<SolverSand> {
     }
 }
 
+impl SkinSandModel<SolverSand> {
+    /// The actuator of `rig` (its tube; its `[skin]` coefficients, else the
+    /// default skin; closed ends, as the paper's) in the solver sand
+    /// `sand`, which must have been run for that actuator (same D0, from
+    /// `solver-sand --rig`); `rig_file` names the rig in errors.
+    pub fn for_rig(rig: &Rig, rig_file: &str, sand: SolverSand) -> Result<Self> {
+        let a = &rig.actuator;
+        ensure!(
+            (sand.initial_diameter_mm() - a.initial_diameter_mm).abs() < 0.01,
+            "the solver runs were made for D0 = {} mm, but {rig_file} [actuator] initial_diameter_mm = {} mm (run `host-sim solver-sand --rig` for this rig)",
+            sand.initial_diameter_mm(),
+            a.initial_diameter_mm
+        );
+        let skin = rig
+            .skin
+            .as_ref()
+            .map_or_else(crate::skin::default_skin, |k| Yeoh {
+                c10_kpa: k.c10_kpa,
+                c20_kpa: k.c20_kpa,
+                c30_kpa: k.c30_kpa,
+            });
+        let geometry = TubeGeometry {
+            outer_diameter_mm: a.initial_diameter_mm,
+            wall_thickness_mm: a.skin_thickness_mm,
+            length_mm: a.expansion_length_mm,
+        };
+        let tube = Tube::new(geometry, skin, Ends::Closed)
+            .with_context(|| format!("{rig_file}: [actuator]/[skin]: the skin tube"))?;
+        Ok(Self { tube, sand })
+    }
+}
+
 impl<S> SkinSandModel<S> {
     /// The skin's pressure p_membrane (kPa) at outer diameter `diameter_mm`.
     pub fn membrane_kpa(&self, diameter_mm: f64) -> Result<f64> {
@@ -76,11 +110,16 @@ impl<S: SandLaw> PressureModel for SkinSandModel<S> {
         let g = &self.tube.geometry;
         format!(
             "host-sim skin + sand (issue 3): Yeoh C10={:.4} C20={:.5} C30={:.6} kPa \
-             (fit to data/skin/unicinctus_circumferential.csv), {} thick tube \
+             ({}), {} thick tube \
              D0={} mm wall={} mm; {}",
             y.c10_kpa,
             y.c20_kpa,
             y.c30_kpa,
+            if *y == crate::skin::default_skin() {
+                "fit to data/skin/unicinctus_circumferential.csv"
+            } else {
+                "the rig's [skin]"
+            },
             self.tube.ends.label(),
             g.outer_diameter_mm,
             g.wall_thickness_mm,

@@ -10,7 +10,12 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
+
+use crate::experiment::Rig;
 use urechis::table::{Table, FORMAT_VERSION};
+
+/// How the committed table is regenerated.
+pub const DEFAULT_COMMAND: &str = "cargo sim tables";
 
 /// Where the generated table lives, relative to the repository root.
 pub const GENERATED_PATH: &str = "src/table/generated.rs";
@@ -46,6 +51,29 @@ impl Default for TableSpec {
             diameters_mm: (0..31)
                 .map(|i| (f64::from(d0) + 0.25 * f64::from(i)) as f32)
                 .collect(),
+        }
+    }
+}
+
+impl TableSpec {
+    /// The grid for the actuator of `rig`: its geometry, the default's depth
+    /// rows, and diameter columns from its D0 over the same relative span
+    /// as the paper's (18.7 → 26.2 mm), every 0.25 mm while that stays
+    /// within 48 columns, else 48 even steps (the firmware's limit is
+    /// [`urechis::table::MAX_POINTS`]).
+    pub fn for_rig(rig: &Rig) -> TableSpec {
+        let paper = TableSpec::default();
+        let a = &rig.actuator;
+        let d0 = a.initial_diameter_mm;
+        let span = d0 * (26.2 / 18.7 - 1.0);
+        let steps = ((span / 0.25).round() as usize).clamp(1, 47);
+        let step = span / steps as f64;
+        TableSpec {
+            initial_diameter_mm: d0 as f32,
+            expansion_length_mm: a.expansion_length_mm as f32,
+            skin_thickness_mm: a.skin_thickness_mm as f32,
+            diameters_mm: (0..=steps).map(|i| (d0 + step * i as f64) as f32).collect(),
+            ..paper
         }
     }
 }
@@ -104,6 +132,8 @@ pub struct GeneratedTable {
     pub provenance: String,
     /// CRC-32 computed by the firmware's own rule.
     pub checksum: u32,
+    /// The command that regenerates the file (goes into its header).
+    pub command: String,
 }
 
 impl GeneratedTable {
@@ -122,6 +152,7 @@ impl GeneratedTable {
             placeholder: model.is_placeholder(),
             provenance: model.provenance(),
             checksum: 0,
+            command: DEFAULT_COMMAND.to_string(),
         };
         out.checksum = out.as_table().compute_checksum();
         if let Err(e) = out.as_table().verify() {
@@ -158,7 +189,8 @@ impl GeneratedTable {
         );
         let _ = writeln!(
             w,
-            "//! `cargo sim tables` (CI fails when this file is stale)."
+            "//! `{}` (CI fails when this file is stale).",
+            self.command
         );
         let _ = writeln!(w, "//!");
         let _ = writeln!(w, "//! Source: {}", self.provenance);
@@ -263,9 +295,28 @@ pub fn regenerate(
     model: &dyn PressureModel,
     check: bool,
 ) -> Result<(PathBuf, TablesOutcome)> {
-    let table = GeneratedTable::sample(&TableSpec::default(), model)?;
+    regenerate_at(
+        &repo_root.join(GENERATED_PATH),
+        &TableSpec::default(),
+        model,
+        check,
+        DEFAULT_COMMAND,
+    )
+}
+
+/// [`regenerate`] for any grid `spec`, into the file `path`, naming
+/// `command` as the way to regenerate it.
+pub fn regenerate_at(
+    path: &Path,
+    spec: &TableSpec,
+    model: &dyn PressureModel,
+    check: bool,
+    command: &str,
+) -> Result<(PathBuf, TablesOutcome)> {
+    let mut table = GeneratedTable::sample(spec, model)?;
+    table.command = command.to_string();
     let source = table.to_rust_source();
-    let path = repo_root.join(GENERATED_PATH);
+    let path = path.to_path_buf();
     let current = std::fs::read_to_string(&path).ok();
     if current.as_deref() == Some(source.as_str()) {
         return Ok((path, TablesOutcome::Unchanged));

@@ -18,7 +18,7 @@ use std::time::Instant;
 use anyhow::{ensure, Context, Result};
 use serde::Serialize;
 
-use super::solver::{SolverSand, COLUMNS, UNIT_WEIGHT_KEY};
+use super::solver::{SolverSand, COLUMNS, INITIAL_DIAMETER_KEY, UNIT_WEIGHT_KEY};
 use crate::experiment::Rig;
 use crate::simulate::{simulate, Options, ScenarioSpec};
 
@@ -228,7 +228,7 @@ pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
         let _ = writeln!(s, "# setup = {}", probe.setup);
         let _ = writeln!(
             s,
-            "# initial_diameter_mm = {}",
+            "# {INITIAL_DIAMETER_KEY} = {}",
             probe.tube.outer_diameter_mm
         );
         let _ = writeln!(s, "# final_diameter_mm = {}", probe.final_diameter_m * 1e3);

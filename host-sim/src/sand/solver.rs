@@ -36,6 +36,10 @@ pub const DATA_PATH: &str = "host-sim/data/sand/solver-pe.csv";
 /// weight γ' the solver used, in kPa per mm of depth.
 pub const UNIT_WEIGHT_KEY: &str = "buoyant_unit_weight_kpa_per_mm";
 
+/// Header key of the actuator's rest diameter D0 (mm), written by
+/// `solver-sand --rig`; absent: the paper's 18.7 mm.
+pub const INITIAL_DIAMETER_KEY: &str = "initial_diameter_mm";
+
 /// The data columns, in the order `host-sim solver-sand` writes them.
 pub const COLUMNS: [&str; 4] = ["depth_mm", "diameter_mm", "p_e_kpa", "samples"];
 
@@ -144,6 +148,7 @@ impl SolverSand {
         // Settings: `# key = value` comment lines.
         let mut settings = Vec::new();
         let mut unit_weight = None;
+        let mut initial_diameter = None;
         for (k, line) in text.lines().enumerate() {
             let Some(comment) = line.trim_start().strip_prefix('#') else {
                 continue;
@@ -171,6 +176,21 @@ impl SolverSand {
                     ));
                 }
                 unit_weight = Some(g);
+            } else if key == INITIAL_DIAMETER_KEY {
+                // Files of another actuator (`solver-sand --rig`) say its D0.
+                let line_no = k as u64 + 1;
+                let d: f64 = value
+                    .parse()
+                    .map_err(|_| err(line_no, key, format!("`{value}` is not a number")))?;
+                if !(d.is_finite() && d > 0.0) {
+                    return Err(err(
+                        line_no,
+                        key,
+                        format!("{value} is not a positive finite diameter"),
+                    ));
+                }
+                initial_diameter = Some(d);
+                settings.push((key.to_string(), value.to_string()));
             } else {
                 settings.push((key.to_string(), value.to_string()));
             }
@@ -352,8 +372,7 @@ impl SolverSand {
         // Cycles start where the parametric law's do, at the zone's rest
         // diameter D0; K0 there is the stored depths' mean (a history does
         // not know its depth; loading at D ≥ D0 reads the depth's own K).
-        let base = SandParams::paper_uncalibrated();
-        let d0 = base.initial_diameter_mm;
+        let d0 = initial_diameter.unwrap_or(SandParams::paper_uncalibrated().initial_diameter_mm);
         let at_rest_coefficient =
             curves.iter().map(|c| c.coefficient_at(d0)).sum::<f64>() / curves.len() as f64;
         Ok(Self {
@@ -366,6 +385,12 @@ impl SolverSand {
             at_rest_coefficient,
             unloading: ParametricSand::calibrated_to_balloon().unloading(),
         })
+    }
+
+    /// Rest outer diameter of the actuator the runs were made with, D0 (mm):
+    /// the file's `initial_diameter_mm`, else the paper's 18.7 mm.
+    pub fn initial_diameter_mm(&self) -> f64 {
+        self.initial_diameter_mm
     }
 
     /// The stored depths, in increasing depth.
