@@ -1,6 +1,8 @@
 //! One scenario run with the calibration knobs on the command line, one
 //! summary line out (for sweeps): `cargo run --profile sim --example
-//! calibrate -- DEPTH_MM RADIUS_MM ROLLING DEPOSITION [quick|full] [SEED] [ABOVE_MM]`.
+//! calibrate -- DEPTH_MM RADIUS_MM ROLLING DEPOSITION [quick|full] [SEED] [ABOVE_MM]
+//! [WALL_MU] [SKIN_SCALE] [AHEAD_MM] [FACE_RADIUS_MM] [ADVANCE_MM] [EXPANSION_S]`
+//! (face radius 0: one grain size).
 
 use anyhow::{Context, Result};
 use host_sim::simulate::{simulate, Options, ScenarioSpec};
@@ -25,6 +27,10 @@ fn main() -> Result<()> {
     spec.wall_friction = num(7, spec.wall_friction)?;
     spec.skin_stiffness_scale = num(8, spec.skin_stiffness_scale)?;
     spec.ahead_m = num(9, spec.ahead_m * 1e3)? * 1e-3;
+    let face_r = num(10, 0.0)? * 1e-3;
+    spec.face_grain_radius_m = (face_r > 0.0).then_some(face_r);
+    spec.advance_m = num(11, spec.advance_m * 1e3)? * 1e-3;
+    spec.expansion_s = num(12, spec.expansion_s)?;
     let above = num(6, 0.0)? * 1e-3;
     if above > 0.0 {
         spec = spec.with_surcharge(above, 2);
@@ -37,9 +43,10 @@ fn main() -> Result<()> {
     let m = rep.final_means().context("no samples")?;
     let st = &rep.settled;
     println!(
-        "h {:>3.0} n {} above {:.0} r {:.2} mu_r {:.2} wall {:.2} skin {:.1} ahead {:.0} dep {:.2} seed {} | settled p_e {:.3} p_h {:.3} surface {:.1} | final p_i {:.3} dp_i {:.3} p_e {:.3} p_h {:.3} drop {:5.1}% (>=22mm {:5.1}%) D_r {:.2} vm {:.4} | {:.0} s",
+        "h {:>3.0} n {} above {:.0} r {:.2} mu_r {:.2} wall {:.2} skin {:.1} ahead {:.0} dep {:.2} seed {} | settled p_e {:.3} p_h {:.3} surface {:.1} | start p_h {:.3} | final p_i {:.3} dp_i {:.3} p_e {:.3} p_h {:.3} drop {:5.1}% (>=22mm {:5.1}%) D_r {:.2} vm {:.4} | {:.0} s",
         h * 1e3, rep.grains.0 + rep.grains.1, rep.spec.above_m * 1e3, r * 1e3, rep.spec.rolling_friction, rep.spec.wall_friction, rep.spec.skin_stiffness_scale, rep.spec.ahead_m * 1e3, rep.spec.deposition_friction, rep.spec.seed,
         st.sand_pressure_pa * 1e-3, st.face_pressure_pa * 1e-3, st.surface_m * 1e3,
+        rep.initial_face_pressure_pa() * 1e-3,
         m.internal_pressure_pa * 1e-3, m.sand_share_pa * 1e-3, m.sand_pressure_pa * 1e-3, m.face_pressure_pa * 1e-3,
         100.0 * rep.face_pressure_drop().unwrap_or(f64::NAN),
         100.0 * rep.face_pressure_drop_beyond(rep.spec.face_drop_from_m()).unwrap_or(f64::NAN),

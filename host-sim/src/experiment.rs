@@ -70,6 +70,17 @@ pub struct Actuator {
     pub skin_thickness_mm: f64,
 }
 
+impl Actuator {
+    /// The expansion zone's skin tube at rest.
+    pub fn tube(&self) -> crate::skin::membrane::TubeGeometry {
+        crate::skin::membrane::TubeGeometry {
+            outer_diameter_mm: self.initial_diameter_mm,
+            wall_thickness_mm: self.skin_thickness_mm,
+            length_mm: self.expansion_length_mm,
+        }
+    }
+}
+
 /// `[skin]`: known Yeoh coefficients; absent = calibrate them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Skin {
@@ -79,6 +90,17 @@ pub struct Skin {
     pub c20_kpa: f64,
     /// Yeoh C30 (kPa).
     pub c30_kpa: f64,
+}
+
+impl Skin {
+    /// These coefficients as the skin model's Yeoh law.
+    pub fn yeoh(&self) -> crate::skin::Yeoh {
+        crate::skin::Yeoh {
+            c10_kpa: self.c10_kpa,
+            c20_kpa: self.c20_kpa,
+            c30_kpa: self.c30_kpa,
+        }
+    }
 }
 
 /// `[sand]`: the granular bed; required when any run has `depth_mm > 0`.

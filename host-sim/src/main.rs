@@ -81,6 +81,18 @@ enum Command {
         /// the rig's grains when coarser.
         #[arg(long = "grain-radius-mm")]
         grain_radius_mm: Option<f64>,
+        /// Duration of the expansion (s); default 0.3 (0.15 with --quick).
+        #[arg(long = "expansion-s")]
+        expansion_s: Option<f64>,
+        /// Advance the actuator this far (mm) into the settled sand before
+        /// the expansion, as at the end of each burrowing cycle (0: expand
+        /// from the bed at rest).
+        #[arg(long = "advance-mm", default_value_t = host_sim::simulate::scenario::PAPER_ADVANCE_M * 1e3)]
+        advance_mm: f64,
+        /// Finer grains (this radius, mm) in a block in front of the head,
+        /// so more grains bear on its face; the time step follows them.
+        #[arg(long = "face-grain-radius-mm")]
+        face_grain_radius_mm: Option<f64>,
         /// Sand only up to this height above the axis (mm), the overburden
         /// above as a surcharge layer: cheaper, weaker (no shear strength).
         #[arg(long = "surcharge-above-mm")]
@@ -88,6 +100,11 @@ enum Command {
         /// Seed of the grains' lattice jitter.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Run the case for this many seeds (seed, seed + 1, ...), each in
+        /// its own seed-S folder, and report mean ± SD (ensemble.csv,
+        /// ensemble.txt).
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+        seeds: u64,
         /// Folder for the results; default out/simulate-hDEPTH.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -289,8 +306,12 @@ fn run(cli: Cli) -> Result<()> {
             rig,
             final_diameter_mm,
             grain_radius_mm,
+            expansion_s,
+            advance_mm,
+            face_grain_radius_mm,
             surcharge_above_mm,
             seed,
+            seeds,
             out,
             quick,
         } => {
@@ -325,13 +346,28 @@ fn run(cli: Cli) -> Result<()> {
                 spec = spec.with_surcharge(above * 1e-3, 2);
             }
             spec.seed = seed;
+            spec.face_grain_radius_m = face_grain_radius_mm.map(|f| f * 1e-3);
+            spec.advance_m = advance_mm * 1e-3;
+            if let Some(t) = expansion_s {
+                spec.expansion_s = t;
+            }
             let out = out.unwrap_or_else(|| PathBuf::from(format!("out/simulate-h{depth_mm}mm")));
-            let report = simulate(&Options {
-                spec,
-                out: Some(out.clone()),
-                progress: true,
-            })?;
-            print!("{}", report.text());
+            if seeds > 1 {
+                let list: Vec<u64> = (seed..seed.saturating_add(seeds)).collect();
+                let ensemble = host_sim::simulate::Ensemble::run(&spec, &list, Some(&out), true)?;
+                for r in &ensemble.reports {
+                    println!("seed {}:", r.spec.seed);
+                    print!("{}", r.text());
+                }
+                print!("{}", ensemble.text());
+            } else {
+                let report = simulate(&Options {
+                    spec,
+                    out: Some(out.clone()),
+                    progress: true,
+                })?;
+                print!("{}", report.text());
+            }
             println!("wrote {}", out.display());
         }
         Command::SolverSand {

@@ -11,7 +11,7 @@ use anyhow::{ensure, Context, Result};
 use crate::experiment::Rig;
 
 use crate::sand::{ParametricSand, SandLaw, SolverSand};
-use crate::skin::membrane::{Ends, InflationState, Tube, TubeGeometry};
+use crate::skin::membrane::{Ends, InflationState, Tube};
 use crate::skin::Yeoh;
 use crate::tables::PressureModel;
 
@@ -69,17 +69,8 @@ impl SkinSandModel<SolverSand> {
         let skin = rig
             .skin
             .as_ref()
-            .map_or_else(crate::skin::default_skin, |k| Yeoh {
-                c10_kpa: k.c10_kpa,
-                c20_kpa: k.c20_kpa,
-                c30_kpa: k.c30_kpa,
-            });
-        let geometry = TubeGeometry {
-            outer_diameter_mm: a.initial_diameter_mm,
-            wall_thickness_mm: a.skin_thickness_mm,
-            length_mm: a.expansion_length_mm,
-        };
-        let tube = Tube::new(geometry, skin, Ends::Closed)
+            .map_or_else(crate::skin::default_skin, |k| k.yeoh());
+        let tube = Tube::new(a.tube(), skin, Ends::Closed)
             .with_context(|| format!("{rig_file}: [actuator]/[skin]: the skin tube"))?;
         Ok(Self { tube, sand })
     }

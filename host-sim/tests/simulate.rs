@@ -298,3 +298,145 @@ fn a_tiny_bed_of_another_rig_carries_its_own_buoyant_weight() {
     let last = report.last().unwrap();
     assert!(last.outer_diameter_m >= spec.final_diameter_m);
 }
+
+#[test]
+fn an_ensemble_reports_each_seeds_run_and_their_mean_and_sd() {
+    use host_sim::simulate::Ensemble;
+    let spec = ScenarioSpec {
+        settle_s: 0.25,
+        expansion_s: 0.05,
+        frames: 1,
+        samples: 10,
+        ..ScenarioSpec::quick(40e-3, 3e-3).with_surcharge(20e-3, 2)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let e = Ensemble::run(&spec, &[4, 5], Some(dir.path()), false).unwrap();
+    let seeds: Vec<u64> = e.reports.iter().map(|r| r.spec.seed).collect();
+    assert_eq!(seeds, [4, 5]);
+    let p_i: Vec<f64> = e
+        .reports
+        .iter()
+        .map(|r| r.final_means().unwrap().internal_pressure_pa * 1e-3)
+        .collect();
+    // Another lattice jitter is another bed: the runs differ.
+    assert_ne!(p_i[0], p_i[1]);
+    let m = e
+        .metrics()
+        .into_iter()
+        .find(|m| m.name == "final_p_i_kpa")
+        .unwrap();
+    assert_eq!(m.values, p_i);
+    assert!((m.mean() - 0.5 * (p_i[0] + p_i[1])).abs() < 1e-12);
+    // Two values: SD = |a − b| / √2.
+    assert!((m.sd() - (p_i[0] - p_i[1]).abs() / 2f64.sqrt()).abs() < 1e-12);
+    let csv = std::fs::read_to_string(dir.path().join("ensemble.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 5, "{csv}");
+    assert!(rows[0].starts_with("seed,") && rows[0].contains("final_p_i_kpa"));
+    assert!(
+        rows[1].starts_with("4,") && rows[3].starts_with("mean,") && rows[4].starts_with("sd,")
+    );
+    for f in ["seed-4/samples.csv", "seed-5/summary.txt", "ensemble.txt"] {
+        assert!(dir.path().join(f).exists(), "{f}");
+    }
+}
+
+#[test]
+fn a_face_block_of_finer_grains_fills_the_front_of_the_head() {
+    let spec = ScenarioSpec {
+        face_grain_radius_m: Some(0.75e-3),
+        ..ScenarioSpec::paper(40e-3, 1.5e-3)
+    };
+    // The time step and the Verlet skin follow the finest grains.
+    assert_eq!(spec.dt_s(), 0.5 * ScenarioSpec::paper(40e-3, 1.5e-3).dt_s());
+    let bed = host_sim::simulate::build(&spec).unwrap();
+    assert!((bed.params.skin_m - 0.15e-3).abs() < 1e-15);
+    let p = &bed.state.particles;
+    let zone_m = bed.coupling.skin.spec.length_m;
+    let (lo, hi) = spec.face_block_m(zone_m, 9.35e-3).unwrap();
+    let fine: Vec<usize> = (0..p.len()).filter(|&i| p.radius_m[i] == 0.75e-3).collect();
+    assert!(fine.len() > 1000, "{} fine grains", fine.len());
+    for &i in &fine {
+        let x = p.position_m[i];
+        let jitter = 0.04 * 0.75e-3;
+        assert!(
+            (0..3).all(|a| x[a] >= lo[a] - jitter && x[a] <= hi[a] + jitter),
+            "fine grain {i} at {x:?} outside the block"
+        );
+    }
+    // The block sits in front of the face, within the face's reach.
+    assert!(lo.z > zone_m && hi.z <= zone_m + 9.35e-3 + 1e-12);
+    // No grain overlaps another at the start (fine–coarse boundary included).
+    let n = p.len();
+    for i in 0..n {
+        for j in i + 1..n {
+            let d = (p.position_m[i] - p.position_m[j]).norm();
+            assert!(d >= p.radius_m[i] + p.radius_m[j], "{i} and {j} overlap");
+        }
+    }
+    // The solid volume is the packing's share of the slab, as one size.
+    let solid: f64 = p
+        .radius_m
+        .iter()
+        .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
+        .sum();
+    let one_size = host_sim::simulate::build(&ScenarioSpec::paper(40e-3, 1.5e-3)).unwrap();
+    let solid_one: f64 = one_size
+        .state
+        .particles
+        .radius_m
+        .iter()
+        .map(|r| 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
+        .sum();
+    assert!(
+        (solid / solid_one - 1.0).abs() < 0.005,
+        "{solid} vs {solid_one}"
+    );
+    // A face radius not below the grain radius is refused.
+    let e = host_sim::simulate::build(&ScenarioSpec {
+        face_grain_radius_m: Some(1.5e-3),
+        ..ScenarioSpec::paper(40e-3, 1.5e-3)
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("face grain radius 1.5 mm"), "{e}");
+}
+
+#[test]
+fn the_advance_carries_head_and_zone_together_and_loads_the_face() {
+    use host_sim::simulate::run;
+    let spec = ScenarioSpec {
+        settle_s: 0.3,
+        ..ScenarioSpec::quick(40e-3, 2.5e-3).with_surcharge(20e-3, 2)
+    };
+    assert_eq!(spec.advance_m, 1e-3, "the paper's advance per cycle");
+    let mut bed = host_sim::simulate::build(&spec).unwrap();
+    let bar = run::progress_bar(false).unwrap();
+    let settled = run::settle(&mut bed, &bar).unwrap();
+    let head0 = bed.coupling.skin.head.unwrap().displacement_m;
+    let zone_m = bed.coupling.skin.spec.length_m;
+    run::advance(&mut bed, &bar).unwrap();
+    let skin = &bed.coupling.skin;
+    let head = skin.head.unwrap();
+    // Head and back ring moved by the advance (the drive's steps × dt).
+    assert!(
+        (head.displacement_m - head0 - 1e-3).abs() < 1e-9,
+        "{}",
+        head.displacement_m - head0
+    );
+    assert!((skin.body_displacement_m - 1e-3).abs() < 1e-9);
+    assert_eq!(head.driven_m_s, None, "the head is free again");
+    // The zone kept its length: the ends are the settled gap apart.
+    let z = |j: usize| {
+        let ring = skin.mesh.ring(j);
+        ring.clone().map(|a| skin.position_m[a].z).sum::<f64>() / ring.len() as f64
+    };
+    assert!((z(skin.mesh.along) - z(0) - (zone_m + head0)).abs() < 1e-9);
+    // Pushing into the sand loads the face well above the bed at rest.
+    let p_h = bed.coupling.face.as_ref().unwrap().pressure_pa();
+    assert!(
+        p_h > 2.0 * settled.face_pressure_pa,
+        "{p_h} Pa after the advance vs {} Pa settled",
+        settled.face_pressure_pa
+    );
+}

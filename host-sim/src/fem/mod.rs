@@ -147,6 +147,9 @@ pub struct Head {
     /// Displacement D_r is measured from (m), e.g. where the head sat
     /// when the expansion began.
     pub origin_m: f64,
+    /// When set, the head is driven at this axial velocity (m/s) whatever
+    /// the forces on it (the body pushing it forward); `None`: free.
+    pub driven_m_s: Option<f64>,
 }
 
 impl Head {
@@ -158,6 +161,7 @@ impl Head {
             velocity_m_s: 0.0,
             external_force_n: 0.0,
             origin_m: 0.0,
+            driven_m_s: None,
         }
     }
 
@@ -228,6 +232,12 @@ pub struct Skin<S: StrainEnergy> {
     /// The rigid head of [`Ends::Head`] (`None` for the other ends). Its
     /// default mass is a tissue hemisphere of the zone's outer radius.
     pub head: Option<Head>,
+    /// [`Ends::Head`]: the body's axial velocity (m/s), carrying the back
+    /// ring (the body advancing with its head); 0 at rest.
+    pub body_velocity_m_s: f64,
+    /// [`Ends::Head`]: how far the body has carried the back ring from
+    /// rest along +z (m).
+    pub body_displacement_m: f64,
 }
 
 impl<S: StrainEnergy> Skin<S> {
@@ -281,6 +291,8 @@ impl<S: StrainEnergy> Skin<S> {
                 let outer = spec.mid_radius_m + 0.5 * spec.thickness_m;
                 Head::at_rest(2.0 / 3.0 * std::f64::consts::PI * outer.powi(3) * spec.density_kg_m3)
             }),
+            body_velocity_m_s: 0.0,
+            body_displacement_m: 0.0,
         })
     }
 
@@ -465,11 +477,20 @@ impl<S: StrainEnergy> Skin<S> {
             // The head and its ring move as one rigid body along z.
             let m = head.mass_kg + ring.clone().map(|a| self.mass_kg[a]).sum::<f64>();
             let f = head_n + head.external_force_n;
-            head.velocity_m_s = (head.velocity_m_s * (1.0 - c) + f * (dt_s / m)) / (1.0 + c);
+            head.velocity_m_s = match head.driven_m_s {
+                Some(v) => v,
+                None => (head.velocity_m_s * (1.0 - c) + f * (dt_s / m)) / (1.0 + c),
+            };
             head.displacement_m += head.velocity_m_s * dt_s;
             for a in ring {
                 self.position_m[a].z = self.mesh.rest_m[a].z + head.displacement_m;
                 self.velocity_m_s[a].z = head.velocity_m_s;
+            }
+            // The body carries the back ring.
+            self.body_displacement_m += self.body_velocity_m_s * dt_s;
+            for a in self.mesh.ring(0) {
+                self.position_m[a].z = self.mesh.rest_m[a].z + self.body_displacement_m;
+                self.velocity_m_s[a].z = self.body_velocity_m_s;
             }
         }
         self.time_s += dt_s;

@@ -30,8 +30,6 @@ use urechis::controller::geometry::ExpansionZone;
 use crate::effects::{Effect, EffectInstance, EffectState, StepContext};
 use crate::experiment::{Rig, Run};
 use crate::sand::{ParametricSand, SandHistory, SandLaw, SandParams, GRAVITY_M_S2};
-use crate::skin::membrane::TubeGeometry;
-use crate::skin::Yeoh;
 
 pub use cycles::{CycleDetector, Phase, HOLD_FLOW_ML_S};
 pub use membrane_curve::MembraneCurve;
@@ -65,19 +63,11 @@ impl RigBasis {
     /// Builds the basis of `rig`.
     pub fn new(rig: &Rig) -> Result<Arc<RigBasis>> {
         let a = &rig.actuator;
-        let skin = match &rig.skin {
-            Some(s) => Yeoh {
-                c10_kpa: s.c10_kpa,
-                c20_kpa: s.c20_kpa,
-                c30_kpa: s.c30_kpa,
-            },
-            None => crate::skin::default_skin(),
-        };
-        let geometry = TubeGeometry {
-            outer_diameter_mm: a.initial_diameter_mm,
-            wall_thickness_mm: a.skin_thickness_mm,
-            length_mm: a.expansion_length_mm,
-        };
+        let skin = rig
+            .skin
+            .as_ref()
+            .map_or_else(crate::skin::default_skin, |s| s.yeoh());
+        let geometry = a.tube();
         let membrane = MembraneCurve::sample(geometry, skin)
             .context("rig.toml [actuator]/[skin]: the skin tube")?;
         // The sand's base law: N fitted to the FEM–DEM solver's stored

@@ -163,33 +163,25 @@ impl SolverSand {
             if key.is_empty() || !key.chars().all(plain) {
                 continue;
             }
-            if key == UNIT_WEIGHT_KEY {
+            let positive = || -> Result<f64, SolverSandError> {
                 let line_no = k as u64 + 1;
-                let g: f64 = value
+                let v: f64 = value
                     .parse()
                     .map_err(|_| err(line_no, key, format!("`{value}` is not a number")))?;
-                if !(g.is_finite() && g > 0.0) {
+                if !(v.is_finite() && v > 0.0) {
                     return Err(err(
                         line_no,
                         key,
                         format!("{value} is not a positive finite number"),
                     ));
                 }
-                unit_weight = Some(g);
+                Ok(v)
+            };
+            if key == UNIT_WEIGHT_KEY {
+                unit_weight = Some(positive()?);
             } else if key == INITIAL_DIAMETER_KEY {
                 // Files of another actuator (`solver-sand --rig`) say its D0.
-                let line_no = k as u64 + 1;
-                let d: f64 = value
-                    .parse()
-                    .map_err(|_| err(line_no, key, format!("`{value}` is not a number")))?;
-                if !(d.is_finite() && d > 0.0) {
-                    return Err(err(
-                        line_no,
-                        key,
-                        format!("{value} is not a positive finite diameter"),
-                    ));
-                }
-                initial_diameter = Some(d);
+                initial_diameter = Some(positive()?);
                 settings.push((key.to_string(), value.to_string()));
             } else {
                 settings.push((key.to_string(), value.to_string()));

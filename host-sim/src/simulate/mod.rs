@@ -7,10 +7,12 @@
 //! writes the samples (CSV), the pressures against D (SVG) and VTK frames.
 //!
 //! [`free_skin`] gives the zone's pressure with no sand, so a run reports
-//! the sand's share of p_i as the balloon experiment measures it. The
+//! the sand's share of p_i as the balloon experiment measures it;
+//! [`ensemble`] repeats a case over seeds for mean ± SD. The
 //! calibration and the validation against the paper are in
 //! `host-sim/README-simulate.md`.
 
+pub mod ensemble;
 pub mod free_skin;
 pub mod output;
 pub mod run;
@@ -25,6 +27,7 @@ use anyhow::Result;
 use crate::coupling::Sample;
 use crate::fem::vtk::write_vtk;
 use crate::skin::membrane::TubeGeometry;
+pub use ensemble::Ensemble;
 pub use free_skin::FreeCurve;
 pub use run::Settled;
 pub use scenario::{build, Bed, ScenarioSpec};
@@ -83,11 +86,26 @@ impl Report {
         Some(s.internal_pressure_pa - self.free.pressure_pa(s.outer_diameter_m)?)
     }
 
-    /// Drop of the front-face pressure from the settled mean to its mean
-    /// over the samples with D ≥ `from_m` (fraction of the settled value):
-    /// the paper reads its drop as flat past D ≈ 22 mm.
+    /// The front-face pressure the expansion starts from (Pa): the first
+    /// sample's, after the advance ([`ScenarioSpec::advance_m`]); the
+    /// settled mean when there was none.
+    pub fn initial_face_pressure_pa(&self) -> f64 {
+        if self.spec.advance_m > 0.0 {
+            self.samples
+                .first()
+                .and_then(|s| s.face_pressure_pa)
+                .unwrap_or(f64::NAN)
+        } else {
+            self.settled.face_pressure_pa
+        }
+    }
+
+    /// Drop of the front-face pressure from where the expansion started
+    /// ([`Report::initial_face_pressure_pa`]) to its mean over the samples
+    /// with D ≥ `from_m` (fraction of the start): the paper reads its
+    /// drop as flat past D ≈ 22 mm.
     pub fn face_pressure_drop_beyond(&self, from_m: f64) -> Option<f64> {
-        let p0 = self.settled.face_pressure_pa;
+        let p0 = self.initial_face_pressure_pa();
         let tail: Vec<f64> = self
             .samples
             .iter()
@@ -98,10 +116,10 @@ impl Report {
         (p0 > 0.0 && !tail.is_empty()).then(|| 1.0 - p1 / p0)
     }
 
-    /// Drop of the front-face pressure from the settled mean to the final
-    /// mean (fraction of the settled value).
+    /// Drop of the front-face pressure from where the expansion started
+    /// to the final mean (fraction of the start).
     pub fn face_pressure_drop(&self) -> Option<f64> {
-        let p0 = self.settled.face_pressure_pa;
+        let p0 = self.initial_face_pressure_pa();
         let p1 = self.final_means()?.face_pressure_pa;
         (p0 > 0.0 && p1.is_finite()).then(|| 1.0 - p1 / p0)
     }
@@ -112,13 +130,16 @@ impl Report {
         let st = &self.settled;
         let _ = writeln!(
             s,
-            "simulate ({}): depth {:.0} mm, zone {} → {:.2} mm over {} mm, grain radius {:.2} mm, {} slab + {} surcharge grains, surcharge {:.0} Pa, dt {:.2e} s",
+            "simulate ({}): depth {:.0} mm, zone {} → {:.2} mm over {} mm, grain radius {:.2} mm{}, {} slab + {} surcharge grains, surcharge {:.0} Pa, dt {:.2e} s",
             self.spec.setup,
             self.spec.depth_m * 1e3,
             self.spec.tube.outer_diameter_mm,
             self.spec.final_diameter_m * 1e3,
             self.spec.tube.length_mm,
             self.spec.grain_radius_m * 1e3,
+            self.spec
+                .face_grain_radius_m
+                .map_or(String::new(), |f| format!(" ({:.2} mm ahead of the face)", f * 1e3)),
             self.grains.0,
             self.grains.1,
             self.surcharge_pa,
@@ -142,7 +163,7 @@ impl Report {
         if let (Some(l), Some(m)) = (self.last(), self.final_means()) {
             let _ = writeln!(
                 s,
-                "final (means over D ≥ {:.2} mm, {} samples): p_i {:.3} kPa, sand's share of it Δp_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa (drop {:.1} % from settled; {:.1} % over D ≥ {:.0} mm), D_r {:.2} mm, max von Mises {:.4} MPa",
+                "final (means over D ≥ {:.2} mm, {} samples): p_i {:.3} kPa, sand's share of it Δp_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa (drop {:.1} % from the expansion's start at {:.3} kPa; {:.1} % over D ≥ {:.0} mm), D_r {:.2} mm, max von Mises {:.4} MPa",
                 (l.outer_diameter_m - FINAL_WINDOW_M) * 1e3,
                 m.samples,
                 m.internal_pressure_pa * 1e-3,
@@ -150,6 +171,7 @@ impl Report {
                 m.sand_pressure_pa * 1e-3,
                 m.face_pressure_pa * 1e-3,
                 100.0 * self.face_pressure_drop().unwrap_or(f64::NAN),
+                self.initial_face_pressure_pa() * 1e-3,
                 100.0 * self.face_pressure_drop_beyond(self.spec.face_drop_from_m()).unwrap_or(f64::NAN),
                 self.spec.face_drop_from_m() * 1e3,
                 m.head_receding_m * 1e3,
@@ -205,10 +227,18 @@ pub struct Options {
 /// pressures.svg, summary.txt and vtk/ frames under `opts.out`.
 pub fn simulate(opts: &Options) -> Result<Report> {
     let t0 = Instant::now();
+    let free = FreeCurve::of(&opts.spec)?;
+    simulate_with(opts, free, t0)
+}
+
+/// [`simulate`] with the zone's free curve `free` already computed (it
+/// depends on the skin only, so runs differing in the sand share it);
+/// the wall time counts from `t0`.
+pub fn simulate_with(opts: &Options, free: FreeCurve, t0: Instant) -> Result<Report> {
     let bar = run::progress_bar(opts.progress)?;
     let mut bed = build(&opts.spec)?;
-    let free = FreeCurve::of(&opts.spec)?;
     let settled = run::settle(&mut bed, &bar)?;
+    run::advance(&mut bed, &bar)?;
     let mut frames: Vec<(String, String, f64)> = Vec::new();
     let samples = run::inflate(&mut bed, &bar, |b, k| {
         if let Some(dir) = &opts.out {

@@ -113,6 +113,36 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
     })
 }
 
+/// Advances the actuator `spec.advance_m` into the settled sand over
+/// `spec.advance_s`: the head and the zone's back ring move together (the
+/// whole body advancing, the skin unstrained), the zone holding its
+/// volume; then the head is freed and the body stays.
+pub fn advance(bed: &mut Bed, bar: &ProgressBar) -> Result<()> {
+    let spec = &bed.spec;
+    if spec.advance_m <= 0.0 {
+        return Ok(());
+    }
+    let steps = (spec.advance_s / bed.params.dt_s).ceil() as u64;
+    let v = spec.advance_m / (steps as f64 * bed.params.dt_s);
+    bar.set_message("advancing");
+    if let Some(h) = &mut bed.coupling.skin.head {
+        h.driven_m_s = Some(v);
+    }
+    bed.coupling.skin.body_velocity_m_s = v;
+    for _ in 0..steps {
+        step(&bed.params, &mut bed.state, &mut bed.coupling).context("advancing the head")?;
+        if let Some(e) = bed.coupling.error() {
+            return Err(e.clone()).context("skin while advancing");
+        }
+    }
+    if let Some(h) = &mut bed.coupling.skin.head {
+        h.driven_m_s = None;
+        h.velocity_m_s = 0.0;
+    }
+    bed.coupling.skin.body_velocity_m_s = 0.0;
+    Ok(())
+}
+
 /// The slab's surface height (m above the axis), see [`Settled::surface_m`].
 fn surface_m(bed: &Bed) -> f64 {
     let p = &bed.state.particles;

@@ -60,6 +60,12 @@ pub const PAPER_FINAL_DIAMETER_M: f64 = 25e-3;
 /// 18.7 → 25 mm expansion (m); other expansions use the same fraction
 /// ([`ScenarioSpec::face_drop_from_m`]).
 pub const PAPER_FACE_DROP_FROM_M: f64 = 22e-3;
+/// The advance before the expansion (m): the paper's 1 mm per burrowing
+/// cycle, so the expansion starts, as in a burrow, with the sand ahead
+/// loaded by the head's last advance (the paper's drop to 25 Pa by 97 %
+/// implies a face pressure of about 0.9 kPa before it, ≈ 2 σ'v at 4 cm;
+/// the settled bed at rest gives ≈ 0.25 σ'v).
+pub const PAPER_ADVANCE_M: f64 = 1e-3;
 /// Sand beside the expanded zone when the rig names no box (a wide tank):
 /// the box is this many final diameters wide, with frictionless sides
 /// standing for the sand beyond (the paper's box is 1.6 of them).
@@ -129,6 +135,19 @@ pub struct ScenarioSpec {
     pub friction: f64,
     /// Where the set-up comes from, for the summary (e.g. the rig's path).
     pub setup: String,
+    /// Radius of finer grains filling a block in front of the head (m), so
+    /// the face carries more than a dozen grains; `None`: one size. The
+    /// block spans the face plus two coarse grains each side and reaches
+    /// one face radius ahead ([`ScenarioSpec::face_block_m`]). The time step
+    /// follows the finest grains.
+    pub face_grain_radius_m: Option<f64>,
+    /// How far the actuator (head and zone together, the skin unstrained)
+    /// advances into the settled sand before the expansion (m), as the
+    /// advance that ends each burrowing cycle; 0: expand from the settled
+    /// state. Default [`PAPER_ADVANCE_M`].
+    pub advance_m: f64,
+    /// Duration of that advance (s).
+    pub advance_s: f64,
 }
 
 impl ScenarioSpec {
@@ -162,6 +181,9 @@ impl ScenarioSpec {
             water_density_kg_m3: WATER_DENSITY_KG_M3,
             friction: FRICTION,
             setup: "the paper's set-up".to_string(),
+            face_grain_radius_m: None,
+            advance_m: PAPER_ADVANCE_M,
+            advance_s: 0.05,
         }
     }
 
@@ -190,11 +212,7 @@ impl ScenarioSpec {
             format!("{rig_file}: [sand] is required to simulate the actuator in sand")
         })?;
         let a = &rig.actuator;
-        let tube = TubeGeometry {
-            outer_diameter_mm: a.initial_diameter_mm,
-            wall_thickness_mm: a.skin_thickness_mm,
-            length_mm: a.expansion_length_mm,
-        };
+        let tube = a.tube();
         let d0 = tube.outer_diameter_mm * 1e-3;
         let final_diameter_m = final_diameter_m.unwrap_or(
             d0 * PAPER_FINAL_DIAMETER_M / (TubeGeometry::PAPER.outer_diameter_mm * 1e-3),
@@ -205,11 +223,7 @@ impl ScenarioSpec {
             a.initial_diameter_mm,
             final_diameter_m * 1e3
         );
-        let skin_coefficients = rig.skin.as_ref().map(|k| Yeoh {
-            c10_kpa: k.c10_kpa,
-            c20_kpa: k.c20_kpa,
-            c30_kpa: k.c30_kpa,
-        });
+        let skin_coefficients = rig.skin.as_ref().map(|k| k.yeoh());
         let (box_width_m, wall_friction) = match &rig.container {
             Some(c) => (c.width_mm * 1e-3, sand.friction),
             None => (WIDE_TANK_DIAMETERS * final_diameter_m, 0.0),
@@ -366,11 +380,39 @@ impl ScenarioSpec {
         SkinSpec::from_tube(&self.tube, 3, 1).length_m + self.ahead_m
     }
 
+    /// The smallest grain radius (m): the face block's, else the sand's.
+    pub fn min_grain_radius_m(&self) -> f64 {
+        self.face_grain_radius_m
+            .map_or(self.grain_radius_m, |f| f.min(self.grain_radius_m))
+    }
+
+    /// The block of finer grains in front of the head, when there is one:
+    /// its corners (m), x and y within the face radius `face_radius_m` plus
+    /// two coarse grains, z from the face at `zone_m` one face radius
+    /// ahead (at most to the far end).
+    pub fn face_block_m(
+        &self,
+        zone_m: f64,
+        face_radius_m: f64,
+    ) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        let rf = self.face_grain_radius_m?;
+        let half = face_radius_m + 2.0 * self.grain_radius_m;
+        // Inside the box's sides and floor.
+        let half_x = half.min(0.5 * self.box_width_m - rf);
+        let low_y = (-half).max(-self.below_m + rf);
+        let front = zone_m + 1.1 * rf;
+        let back = (zone_m + face_radius_m).min(zone_m + self.ahead_m - rf);
+        Some((
+            Vector3::new(-half_x, low_y, front),
+            Vector3::new(half_x, half, back),
+        ))
+    }
+
     /// DEM time step (s): the throughput benchmark's 1.5e-5 s for 1 mm
     /// grains of 2920 kg/m³, scaled as the contact time, ∝ r √ρ at equal
-    /// velocities and moduli.
+    /// velocities and moduli, for the finest grains.
     pub fn dt_s(&self) -> f64 {
-        1.5e-5 * self.grain_radius_m / 1e-3
+        1.5e-5 * self.min_grain_radius_m() / 1e-3
             * (self.grain_density_kg_m3 / GRAIN_DENSITY_KG_M3).sqrt()
     }
 
@@ -387,6 +429,14 @@ impl ScenarioSpec {
     fn validate(&self) -> Result<()> {
         let pos = |v: f64| v > 0.0 && v.is_finite();
         ensure!(pos(self.grain_radius_m), "grain radius must be positive");
+        if let Some(rf) = self.face_grain_radius_m {
+            ensure!(
+                pos(rf) && rf < self.grain_radius_m && rf >= 0.2 * self.grain_radius_m,
+                "face grain radius {} mm must lie between a fifth of the grain radius {} mm and it",
+                rf * 1e3,
+                self.grain_radius_m * 1e3
+            );
+        }
         ensure!(
             self.depth_m >= self.above_m && self.above_m > 0.0 && self.depth_m.is_finite(),
             "depth {} mm must be at or below the slab top at {} mm above the axis",
@@ -445,6 +495,14 @@ impl ScenarioSpec {
         ensure!(
             pos(self.settle_s) && pos(self.expansion_s) && self.frames >= 1 && self.samples >= 1,
             "settle/expansion times, frames and samples must be positive"
+        );
+        ensure!(
+            self.advance_m >= 0.0
+                && self.advance_m <= 0.5 * self.ahead_m
+                && pos(self.advance_s),
+            "advance {} mm must lie between 0 and half the sand ahead ({} mm), over a positive time",
+            self.advance_m * 1e3,
+            0.5 * self.ahead_m * 1e3
         );
         ensure!(
             pos(self.skin_stiffness_scale),
@@ -552,7 +610,7 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     let mut params = Params::new(&mat, &rough, dt)?;
     params.gravity_m_s2 = Vector3::new(0.0, -GRAVITY_M_S2, 0.0);
     params.fluid_density_kg_m3 = spec.water_density_kg_m3;
-    params.skin_m = 0.2 * r;
+    params.skin_m = 0.2 * spec.min_grain_radius_m();
     let (w, zl) = (spec.box_width_m, spec.slab_length_m());
     let planes = [
         (Vector3::new(0.0, -spec.below_m, 0.0), Vector3::y(), &smooth),
@@ -592,20 +650,59 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     );
     let keep_out = 0.5 * coupling.skin.outer_diameter_at_mid_length_m() + 1.1 * r;
 
-    // Grain count for the slab at the assumed packing.
+    let mut rng = rand::rngs::StdRng::seed_from_u64(spec.seed);
+    // The face block first: a full jittered lattice of the fine grains
+    // (solid fraction 0.45; it packs as it settles and the coarse sand
+    // above follows).
+    let block = spec.face_block_m(zone_m, face_radius);
+    let mut fine = Vec::new();
+    if let (Some((lo, hi)), Some(rf)) = (block, spec.face_grain_radius_m) {
+        let pitch = 2.1 * rf;
+        let jitter = 0.04 * rf;
+        let count = |a: usize| ((hi[a] - lo[a]) / pitch).floor() as usize + 1;
+        for k in 0..count(2) {
+            for j in 0..count(1) {
+                for i in 0..count(0) {
+                    let mut jit = || rng.random_range(-jitter..=jitter);
+                    let p = Vector3::new(
+                        lo.x + i as f64 * pitch + jit(),
+                        lo.y + j as f64 * pitch + jit(),
+                        lo.z + k as f64 * pitch + jit(),
+                    );
+                    fine.push(p);
+                }
+            }
+        }
+    }
+    let fine_radius = spec.face_grain_radius_m.unwrap_or(r);
+    let ball = |radius: f64| 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
+    // A coarse grain closer to the block's lattice than the two radii and
+    // both jitters would overlap a fine one.
+    let margin = 1.04 * (r + fine_radius);
+    let in_block = |p: &Vector3<f64>| {
+        block.is_some_and(|(lo, hi)| (0..3).all(|a| p[a] > lo[a] - margin && p[a] < hi[a] + margin))
+    };
+
+    // Grain count for the slab at the assumed packing: the block's grains
+    // count for their own volume.
     let zone_volume = std::f64::consts::PI * keep_out.powi(2) * zone_m;
     let slab_volume = w * (spec.below_m + spec.above_m) * zl - zone_volume;
-    let grain_volume = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
-    let slab_grains = (spec.packing * slab_volume / grain_volume).round() as usize;
+    let grain_volume = ball(r);
+    let coarse = ((spec.packing * slab_volume - fine.len() as f64 * ball(fine_radius))
+        / grain_volume)
+        .round()
+        .max(0.0) as usize;
+    let slab_grains = fine.len() + coarse;
 
     let pitch = 2.1 * r;
     let jitter = 0.04 * r;
-    let mut rng = rand::rngs::StdRng::seed_from_u64(spec.seed);
     let per_axis = |len: f64| ((len - pitch) / pitch).floor() as usize + 1;
     let (nx, nz) = (per_axis(w), per_axis(zl));
     let x0 = -0.5 * w + 0.5 * (w - (nx - 1) as f64 * pitch);
     let z0 = 0.5 * (zl - (nz - 1) as f64 * pitch);
     let mut positions = Vec::with_capacity(slab_grains + spec.surcharge_rows * nx * nz);
+    positions.append(&mut fine);
+    let fine_grains = positions.len();
     let mut row = 0usize;
     let mut surcharge_start = None;
     while surcharge_start.is_none_or(|k0| row < k0 + spec.surcharge_rows) {
@@ -622,7 +719,7 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
                     z0 + j as f64 * pitch + jit(),
                 );
                 let by_zone = p.z < zone_m + r + 0.1 * r && p.x.hypot(p.y) < keep_out;
-                if !by_zone {
+                if !by_zone && !in_block(&p) {
                     positions.push(p);
                 }
             }
@@ -650,7 +747,8 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
         } else {
             heavy_density
         };
-        particles.push(p, Vector3::zeros(), r, rho)?;
+        let radius = if k < fine_grains { fine_radius } else { r };
+        particles.push(p, Vector3::zeros(), radius, rho)?;
     }
     Ok(Bed {
         spec: spec.clone(),
