@@ -7,15 +7,22 @@ use host_sim::experiment::Rig;
 use host_sim::fem::Ends;
 use host_sim::simulate::{simulate, FreeCurve, Options, ScenarioSpec};
 
+/// A tiny, coarse case at 40 mm (grains of `radius_m`, sand to 20 mm over
+/// the axis under a surcharge), settling `settle_s` and expanding over
+/// `expansion_s` in `frames` frames.
+fn tiny(radius_m: f64, settle_s: f64, expansion_s: f64, frames: usize) -> ScenarioSpec {
+    ScenarioSpec {
+        settle_s,
+        expansion_s,
+        frames,
+        samples: 10 * frames,
+        ..ScenarioSpec::quick(40e-3, radius_m).with_surcharge(20e-3, 2)
+    }
+}
+
 #[test]
 fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone() {
-    let spec = ScenarioSpec {
-        settle_s: 0.4,
-        expansion_s: 0.08,
-        frames: 2,
-        samples: 20,
-        ..ScenarioSpec::quick(40e-3, 2.5e-3).with_surcharge(20e-3, 2)
-    };
+    let spec = tiny(2.5e-3, 0.4, 0.08, 2);
     let dir = tempfile::tempdir().unwrap();
     let report = simulate(&Options {
         spec: spec.clone(),
@@ -302,13 +309,7 @@ fn a_tiny_bed_of_another_rig_carries_its_own_buoyant_weight() {
 #[test]
 fn an_ensemble_reports_each_seeds_run_and_their_mean_and_sd() {
     use host_sim::simulate::Ensemble;
-    let spec = ScenarioSpec {
-        settle_s: 0.25,
-        expansion_s: 0.05,
-        frames: 1,
-        samples: 10,
-        ..ScenarioSpec::quick(40e-3, 3e-3).with_surcharge(20e-3, 2)
-    };
+    let spec = tiny(3e-3, 0.25, 0.05, 1);
     let dir = tempfile::tempdir().unwrap();
     let e = Ensemble::run(&spec, &[4, 5], Some(dir.path()), false).unwrap();
     let seeds: Vec<u64> = e.reports.iter().map(|r| r.spec.seed).collect();
@@ -405,10 +406,12 @@ fn a_face_block_of_finer_grains_fills_the_front_of_the_head() {
 #[test]
 fn the_advance_carries_head_and_zone_together_and_loads_the_face() {
     use host_sim::simulate::run;
-    let spec = ScenarioSpec {
-        settle_s: 0.3,
-        ..ScenarioSpec::quick(40e-3, 2.5e-3).with_surcharge(20e-3, 2)
-    };
+    let spec = tiny(
+        2.5e-3,
+        0.3,
+        ScenarioSpec::quick(40e-3, 2.5e-3).expansion_s,
+        1,
+    );
     assert_eq!(spec.advance_m, 1e-3, "the paper's advance per cycle");
     let mut bed = host_sim::simulate::build(&spec).unwrap();
     let bar = run::progress_bar(false).unwrap();
