@@ -440,6 +440,14 @@ impl<'a> RigDoc<'a> {
 }
 
 impl Rig {
+    /// The skin's law: the `[skin]` coefficients, else the project's
+    /// default skin.
+    pub fn skin_law(&self) -> crate::skin::Yeoh {
+        self.skin
+            .as_ref()
+            .map_or_else(crate::skin::default_skin, Skin::yeoh)
+    }
+
     /// The paper's set-up, as in the example of `shared/data-format.md`.
     /// From the paper: D0 18.7 mm, 20 mm expansion zone, 1.75 mm skin, grain
     /// radius 0.36 mm, grain density 2920 kg/m^3, friction 0.25, 180 mm of

@@ -66,11 +66,7 @@ impl SkinSandModel<SolverSand> {
             sand.initial_diameter_mm(),
             a.initial_diameter_mm
         );
-        let skin = rig
-            .skin
-            .as_ref()
-            .map_or_else(crate::skin::default_skin, |k| k.yeoh());
-        let tube = Tube::new(a.tube(), skin, Ends::Closed)
+        let tube = Tube::new(a.tube(), rig.skin_law(), Ends::Closed)
             .with_context(|| format!("{rig_file}: [actuator]/[skin]: the skin tube"))?;
         Ok(Self { tube, sand })
     }

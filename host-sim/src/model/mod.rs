@@ -63,12 +63,7 @@ impl RigBasis {
     /// Builds the basis of `rig`.
     pub fn new(rig: &Rig) -> Result<Arc<RigBasis>> {
         let a = &rig.actuator;
-        let skin = rig
-            .skin
-            .as_ref()
-            .map_or_else(crate::skin::default_skin, |s| s.yeoh());
-        let geometry = a.tube();
-        let membrane = MembraneCurve::sample(geometry, skin)
+        let membrane = MembraneCurve::sample(a.tube(), rig.skin_law())
             .context("rig.toml [actuator]/[skin]: the skin tube")?;
         // The sand's base law: N fitted to the FEM–DEM solver's stored
         // results, the same file the firmware table's sand comes from, so

@@ -248,18 +248,16 @@ impl ScenarioSpec {
                 self.skin_stiffness_scale
             ));
         }
-        if rig.container.is_none() {
-            notes.push(format!(
+        notes.push(match &rig.container {
+            None => format!(
                 "{rig_file}: no [container] (a wide tank): the box is {WIDE_TANK_DIAMETERS} final diameters ({:.1} mm) wide with frictionless sides",
                 box_width_m * 1e3
-            ));
-        }
-        if let Some(c) = &rig.container {
-            notes.push(format!(
+            ),
+            Some(c) => format!(
                 "{rig_file}: [container] length_mm = {} mm: the simulated slab is the zone plus the sand ahead of the head",
                 c.length_mm
-            ));
-        }
+            ),
+        });
         let spec = ScenarioSpec {
             box_width_m,
             ahead_m: self.ahead_m.max(0.8 * d0),
