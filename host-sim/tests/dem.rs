@@ -601,6 +601,92 @@ fn cylinder_walls_carry_a_resting_sphere_from_inside_and_outside() {
     }
 }
 
+/// Walls are checked only for the particles near them at the last list
+/// build (or when the walls change): a sphere dropped from 20 skins above
+/// a floor still lands on it, and a wall moved onto a resting sphere
+/// between two steps (no particle moved, so no list build) pushes it at
+/// once with the Hertz force of the overlap.
+#[test]
+fn wall_culling_misses_no_contact() {
+    let mat = sand();
+    let spec = ContactSpec::default();
+    let r = 1.0e-3;
+    let mut params = Params::new(&mat, &spec, 1.5e-5).unwrap();
+    params.gravity_m_s2 = Vector3::new(0.0, 0.0, -9.81);
+    params
+        .walls
+        .push(Wall::plane(Vector3::zeros(), Vector3::z(), &mat, &mat, &spec).unwrap());
+    let mut p = Particles::new();
+    let drop_m = 20.0 * params.skin_m;
+    p.push(
+        Vector3::new(0.0, 0.0, r + drop_m),
+        Vector3::zeros(),
+        r,
+        mat.density_kg_m3,
+    )
+    .unwrap();
+    let mut state = State::new(p);
+    let mut lowest = f64::INFINITY;
+    for _ in 0..6_000 {
+        step(&params, &mut state, &mut ()).unwrap();
+        lowest = lowest.min(state.particles.position_m[0].z);
+    }
+    // It fell, touched (the floor carries its weight) and never sank
+    // through: the deepest overlap is a Hertz one (≪ r).
+    let w = state.particles.mass_kg[0] * 9.81;
+    let f = state.wall_forces_n()[0];
+    eprintln!(
+        "dropped sphere: lowest z {lowest:.4e} m, floor force {:.4e} N, weight {w:.4e} N",
+        -f.z
+    );
+    assert!(lowest > 0.9 * r && lowest < r);
+    assert!((-f.z / w - 1.0).abs() < 0.01);
+
+    // A side wall (elastic, frictionless: its force is Hertz's of the
+    // overlap alone) put 5 skins away, then moved to 0.05 r into the resting
+    // sphere, then 0.05 r further in; the force is checked against the
+    // overlap after each step (the sphere recoils a little within it).
+    let side = ContactSpec {
+        restitution: 1.0,
+        friction: 0.0,
+        rolling_friction: 0.0,
+    };
+    let x = state.particles.position_m[0].x;
+    let hertz =
+        |overlap: f64| 4.0 / 3.0 * mat.effective_modulus_pa(&mat) * r.sqrt() * overlap.powf(1.5);
+    // First 5 skins away (not touching, not near: culled), then in.
+    let far = -5.0 * params.skin_m;
+    for (k, depth) in [far, 0.05 * r, 0.1 * r].into_iter().enumerate() {
+        let wall_x = x + r - depth;
+        let wall = Wall::plane(
+            Vector3::new(wall_x, 0.0, 0.0),
+            -Vector3::x(),
+            &mat,
+            &mat,
+            &side,
+        )
+        .unwrap();
+        if k == 0 {
+            params.walls.push(wall);
+        } else {
+            params.walls[1] = wall;
+        }
+        step(&params, &mut state, &mut ()).unwrap();
+        let overlap = state.particles.position_m[0].x + r - wall_x;
+        let f = state.wall_forces_n()[1].x;
+        eprintln!(
+            "wall at {:.3} r: {f:.5e} N on it, Hertz {:.5e} N",
+            depth / r,
+            hertz(overlap.max(0.0))
+        );
+        if depth < 0.0 {
+            assert_eq!(f, 0.0);
+        } else {
+            assert!(overlap > 0.5 * depth && (f / hertz(overlap) - 1.0).abs() < 1e-9);
+        }
+    }
+}
+
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
     let mat = sand();

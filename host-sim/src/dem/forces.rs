@@ -8,14 +8,14 @@ use rayon::prelude::*;
 use super::contact::{ContactForce, ContactGeometry, History};
 use super::neighbour::NeighbourList;
 use super::particles::Particles;
-use super::walls::Wall;
+use super::walls::{Wall, WallShape};
 use super::Params;
 
 /// Pairs per parallel task.
 const PAIR_CHUNK: usize = 2048;
 /// Particles per parallel task in the gather (also fixes the order of the
 /// wall-force partial sums, so totals do not depend on the thread count).
-pub(crate) const GATHER_CHUNK: usize = 512;
+const GATHER_CHUNK: usize = 512;
 
 /// Geometry of the pair (i, j), if the spheres overlap.
 #[inline]
@@ -97,19 +97,14 @@ pub(crate) fn pair_forces(
 }
 
 /// Sums, per particle, body force, pair forces from `pairs` and wall
-/// contacts into `force_n`/`torque_n_m`. Wall histories are
-/// `wall_history[i * stride + w]`, with bit w of `wall_mask[i]` set while
-/// that contact is open (walls past the 64th share bit 63);
-/// `wall_partial[c * stride + w]` receives
-/// chunk c's force on wall w (N) (stride = max(walls, 1)).
+/// contacts into `force_n`/`torque_n_m`, keeping the wall contacts'
+/// history and each chunk's force on each wall in `walls`.
 pub(crate) fn gather(
     params: &Params,
     p: &mut Particles,
     list: &NeighbourList,
     pairs: &[ContactForce],
-    wall_history: &mut [History],
-    wall_mask: &mut [u64],
-    wall_partial: &mut [Vector3<f64>],
+    walls: &mut WallContacts,
 ) {
     let stride = params.walls.len().max(1);
     let dt = params.dt_s;
@@ -117,12 +112,13 @@ pub(crate) fn gather(
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
     let pr: &Particles = p;
+    let near = &walls.near;
     (
         force.par_chunks_mut(GATHER_CHUNK),
         torque.par_chunks_mut(GATHER_CHUNK),
-        wall_history.par_chunks_mut(GATHER_CHUNK * stride),
-        wall_mask.par_chunks_mut(GATHER_CHUNK),
-        wall_partial.par_chunks_mut(stride),
+        walls.history.par_chunks_mut(GATHER_CHUNK * stride),
+        walls.open.par_chunks_mut(GATHER_CHUNK),
+        walls.partial.par_chunks_mut(stride),
     )
         .into_par_iter()
         .enumerate()
@@ -144,8 +140,14 @@ pub(crate) fn gather(
                     ti += cf.torque_per_radius_n * ri - cf.rolling_torque_n_m;
                 }
                 let mut touching = 0u64;
+                // Walls that can touch i before the next list build, and
+                // those it touched last step (to clear their history).
+                let candidates = near[i] | mask[k];
                 for (w, wall) in params.walls.iter().enumerate() {
                     let bit = 1u64 << w.min(63);
+                    if candidates & bit == 0 {
+                        continue;
+                    }
                     match wall_geometry(pr, i, wall) {
                         Some(g) => {
                             let h = &mut wh[k * stride + w];
@@ -168,4 +170,94 @@ pub(crate) fn gather(
         });
     p.force_n = force;
     p.torque_n_m = torque;
+}
+
+/// Most walls [`WallContacts`] culls by: with more, every wall is checked.
+const MAX_CULLED_WALLS: usize = 64;
+
+/// Per-particle state of the wall contacts.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct WallContacts {
+    /// Contact history of particle i on wall w at `i * stride + w`
+    /// (stride = max(walls, 1)).
+    pub(crate) history: Vec<History>,
+    /// Bit w set while particle i touches wall w (walls past the 64th
+    /// share bit 63).
+    pub(crate) open: Vec<u64>,
+    /// Bit w set if particle i can touch wall w before the next list build
+    /// ([`WallContacts::cull`]); only those and the open ones are checked.
+    pub(crate) near: Vec<u64>,
+    /// The list build and wall shapes `near` was made for.
+    near_for: (u64, Vec<WallShape>),
+    /// Chunk c's force on wall w at `c * stride + w` (N), summed in chunk
+    /// order for totals independent of the thread count.
+    pub(crate) partial: Vec<Vector3<f64>>,
+}
+
+impl WallContacts {
+    /// Whether the arrays fit `n` particles and `walls` walls.
+    pub(crate) fn fits(&self, n: usize, walls: usize) -> bool {
+        self.history.len() == n * walls.max(1) && self.open.len() == n
+    }
+
+    /// Empties every contact and sizes the arrays for `n` particles and
+    /// `walls` walls.
+    pub(crate) fn reset(&mut self, n: usize, walls: usize) {
+        let stride = walls.max(1);
+        self.history = vec![History::default(); n * stride];
+        self.open = vec![u64::MAX; n];
+        self.near_for = (u64::MAX, Vec::new());
+        self.partial = vec![Vector3::zeros(); n.div_ceil(GATHER_CHUNK).max(1) * stride];
+    }
+
+    /// Marks, per particle, the walls it can touch while it stays within
+    /// half the skin (m) of `list.reference_m`: those closer than the skin
+    /// to its surface there. Redone when the list was rebuilt or the walls
+    /// moved (the caller changed them); every wall when there are more than
+    /// [`MAX_CULLED_WALLS`].
+    pub(crate) fn cull(
+        &mut self,
+        walls: &[Wall],
+        p: &Particles,
+        list: &NeighbourList,
+        skin_m: f64,
+    ) {
+        let shapes = walls.iter().map(|w| w.shape);
+        if self.near_for.0 == list.builds
+            && self.near.len() == p.len()
+            && shapes.clone().eq(self.near_for.1.iter().copied())
+        {
+            return;
+        }
+        self.near_for = (list.builds, shapes.collect());
+        if walls.len() > MAX_CULLED_WALLS {
+            self.near.clear();
+            self.near.resize(p.len(), u64::MAX);
+            return;
+        }
+        list.reference_m
+            .par_iter()
+            .zip(p.radius_m.par_iter())
+            .map(|(x, &r)| {
+                walls
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, wall)| wall.clearance_m(x, r) < skin_m)
+                    .fold(0u64, |m, (w, _)| m | 1 << w)
+            })
+            .collect_into_vec(&mut self.near);
+    }
+
+    /// Total force on each wall (N) from the chunks' partial sums.
+    pub(crate) fn totals(&self, out: &mut [Vector3<f64>]) {
+        let stride = out.len().max(1);
+        for (w, total) in out.iter_mut().enumerate() {
+            *total = self
+                .partial
+                .iter()
+                .skip(w)
+                .step_by(stride)
+                .fold(Vector3::zeros(), |a, b| a + b);
+        }
+    }
 }

@@ -42,7 +42,7 @@ pub use particles::Particles;
 pub use sink::Sink;
 pub use walls::{CylinderSide, Wall, WallShape};
 
-use contact::{ContactForce, History};
+use contact::ContactForce;
 
 /// What can go wrong in the solver.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -157,9 +157,7 @@ pub struct State {
     pub step_count: u64,
     neighbours: NeighbourList,
     pair_forces: Vec<ContactForce>,
-    wall_history: Vec<History>,
-    wall_mask: Vec<u64>,
-    wall_partial: Vec<Vector3<f64>>,
+    wall_contacts: forces::WallContacts,
     wall_force_n: Vec<Vector3<f64>>,
     forces_ready: bool,
 }
@@ -173,9 +171,7 @@ impl State {
             step_count: 0,
             neighbours: NeighbourList::default(),
             pair_forces: Vec::new(),
-            wall_history: Vec::new(),
-            wall_mask: Vec::new(),
-            wall_partial: Vec::new(),
+            wall_contacts: forces::WallContacts::default(),
             wall_force_n: Vec::new(),
             forces_ready: false,
         }
@@ -219,15 +215,12 @@ impl State {
     /// when the count changed) and rebuilds a stale neighbour list.
     fn prepare(&mut self, params: &Params) -> Result<(), DemError> {
         let n = self.particles.len();
-        let stride = params.walls.len().max(1);
-        let chunks = n.div_ceil(forces::GATHER_CHUNK).max(1);
-        if self.wall_history.len() != n * stride || self.wall_force_n.len() != params.walls.len() {
-            self.wall_history = vec![History::default(); n * stride];
-            self.wall_mask = vec![u64::MAX; n];
-            self.wall_force_n = vec![Vector3::zeros(); params.walls.len()];
+        let walls = params.walls.len();
+        if !self.wall_contacts.fits(n, walls) || self.wall_force_n.len() != walls {
+            self.wall_contacts.reset(n, walls);
+            self.wall_force_n = vec![Vector3::zeros(); walls];
             self.forces_ready = false;
         }
-        self.wall_partial.resize(chunks * stride, Vector3::zeros());
         if self.neighbours.is_stale(n, params.skin_m) {
             self.rebuild(params)?;
             self.forces_ready = false;
@@ -255,24 +248,20 @@ impl State {
             &mut self.neighbours,
             &mut self.pair_forces,
         );
+        self.wall_contacts.cull(
+            &params.walls,
+            &self.particles,
+            &self.neighbours,
+            params.skin_m,
+        );
         forces::gather(
             params,
             &mut self.particles,
             &self.neighbours,
             &self.pair_forces,
-            &mut self.wall_history,
-            &mut self.wall_mask,
-            &mut self.wall_partial,
+            &mut self.wall_contacts,
         );
-        let stride = params.walls.len().max(1);
-        for (w, total) in self.wall_force_n.iter_mut().enumerate() {
-            *total = self
-                .wall_partial
-                .iter()
-                .skip(w)
-                .step_by(stride)
-                .fold(Vector3::zeros(), |a, b| a + b);
-        }
+        self.wall_contacts.totals(&mut self.wall_force_n);
         sink.add_external_forces(self.time_s, &mut self.particles);
     }
 }

@@ -104,16 +104,28 @@ impl Wall {
         })
     }
 
-    /// Contact of a sphere at `x` (m) of radius `r` (m): the unit normal
-    /// from the wall to the sphere and the overlap (m), if it touches.
+    /// Unit normal from the wall to the sphere of radius `r` (m) at `x`
+    /// and the overlap (m), if it touches.
     #[inline]
     pub fn touch(&self, x: &Vector3<f64>, r: f64) -> Option<(Vector3<f64>, f64)> {
+        self.normal_and_overlap(x, r)
+            .filter(|&(_, overlap)| overlap > 0.0)
+    }
+
+    /// Gap between the wall and the surface of the sphere of radius `r`
+    /// (m) at `x` (m); negative while they overlap, +∞ on a cylinder's
+    /// axis (no contact is representable there).
+    pub fn clearance_m(&self, x: &Vector3<f64>, r: f64) -> f64 {
+        self.normal_and_overlap(x, r)
+            .map_or(f64::INFINITY, |(_, overlap)| -overlap)
+    }
+
+    /// Normal from the wall to the sphere and the signed overlap (m);
+    /// `None` on a cylinder's axis, where the direction is undefined.
+    #[inline]
+    fn normal_and_overlap(&self, x: &Vector3<f64>, r: f64) -> Option<(Vector3<f64>, f64)> {
         match self.shape {
-            WallShape::Plane { point_m, normal } => {
-                let d = (x - point_m).dot(&normal);
-                let overlap = r - d;
-                (overlap > 0.0).then_some((normal, overlap))
-            }
+            WallShape::Plane { point_m, normal } => Some((normal, r - (x - point_m).dot(&normal))),
             WallShape::Cylinder {
                 axis_point_m,
                 axis,
@@ -130,16 +142,10 @@ impl Wall {
                     return None;
                 }
                 let out = radial / rho;
-                match side {
-                    CylinderSide::Inside => {
-                        let overlap = r - (radius_m - rho);
-                        (overlap > 0.0).then_some((-out, overlap))
-                    }
-                    CylinderSide::Outside => {
-                        let overlap = r - (rho - radius_m);
-                        (overlap > 0.0).then_some((out, overlap))
-                    }
-                }
+                Some(match side {
+                    CylinderSide::Inside => (-out, r - (radius_m - rho)),
+                    CylinderSide::Outside => (out, r - (rho - radius_m)),
+                })
             }
         }
     }
