@@ -133,6 +133,9 @@ enum Command {
         /// paper's stretch 25/18.7 of the rig's initial diameter.
         #[arg(long = "final-diameter-mm", requires = "rig")]
         final_diameter_mm: Option<f64>,
+        /// Beds per depth (seeds 1, 2, …), their samples pooled in the bins.
+        #[arg(long, default_value_t = host_sim::sand::regenerate::DEFAULT_SEEDS, value_parser = clap::value_parser!(u64).range(1..))]
+        seeds: u64,
     },
     /// Benchmarks (`bench dem`: the DEM throughput problem of shared/bench).
     Bench {
@@ -376,6 +379,7 @@ fn run(cli: Cli) -> Result<()> {
             depths_mm,
             rig,
             final_diameter_mm,
+            seeds,
         } => {
             use host_sim::sand::regenerate::{regenerate, RegenerateOptions, RigSetup};
             let out =
@@ -394,12 +398,14 @@ fn run(cli: Cli) -> Result<()> {
                 quick,
                 progress: true,
                 rig,
+                seeds,
             };
             regenerate(&opts, &out, |run| {
                 println!(
-                    "h = {} mm: final p_e (the sand's share of p_i) {:.3} kPa at D {:.2} mm, {} bins from D {:.2} mm, {} grains, wall {:.1} s",
+                    "h = {} mm: final p_e (the sand's share of p_i) {:.3} ± {:.3} kPa over {seeds} seed(s) at D {:.2} mm, {} bins from D {:.2} mm, {} grains, wall {:.1} s",
                     run.depth_mm,
                     run.final_p_e_kpa,
+                    run.final_p_e_sd_kpa,
                     run.final_diameter_mm,
                     run.bins.len(),
                     run.settled_diameter_mm,

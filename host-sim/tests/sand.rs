@@ -6,7 +6,9 @@
 
 use std::path::Path;
 
-use host_sim::sand::regenerate::{bin_samples, csv_text, spec, Bin, DepthRun, RegenerateOptions};
+use host_sim::sand::regenerate::{
+    bin_samples, csv_text, run_depth, spec, Bin, DepthRun, RegenerateOptions,
+};
 use host_sim::sand::solver::{SolverSandError, DATA_PATH, UNIT_WEIGHT_KEY};
 use host_sim::sand::{ParametricSand, SandHistory, SandLaw, SolverSand};
 
@@ -240,6 +242,7 @@ fn written_data_read_back_with_the_solvers_unit_weight() {
         settled_diameter_mm: 18.6,
         final_diameter_mm: 25.0,
         final_p_e_kpa: bins.last().map_or(0.0, |b| b.p_e_kpa),
+        final_p_e_sd_kpa: 0.0,
         grains: 100,
         bins,
         wall_s: 1.0,
@@ -264,9 +267,21 @@ fn written_data_read_back_with_the_solvers_unit_weight() {
     assert!((sand.loading_pressure_kpa(24.95, 70.0) - 1.3).abs() < 1e-9);
     let line = sand.describe();
     assert!(
-        line.contains("run=quick") && line.contains("grain_radius_mm=1.5"),
+        line.contains("run=quick")
+            && line.contains("grain_radius_mm=1.5")
+            && line.contains("seeds=1 2 3"),
         "{line}"
     );
+}
+
+#[test]
+fn a_solver_run_needs_a_seed() {
+    let opts = RegenerateOptions {
+        seeds: 0,
+        ..RegenerateOptions::paper(vec![40.0], true)
+    };
+    let e = run_depth(&opts, 40.0).unwrap_err().to_string();
+    assert!(e.contains("at least one seed"), "{e}");
 }
 
 #[test]

@@ -9,7 +9,11 @@
 //! Binning is the smoothing: the solver's samples are single DEM steps,
 //! scattered by the few grains touching the skin, so each stored row is
 //! the mean D and mean p_e of the samples in one [`BIN_WIDTH_MM`] bin from
-//! the settled diameter to the final one; empty bins are left out.
+//! the settled diameter to the final one; empty bins are left out. Each
+//! depth runs [`DEFAULT_SEEDS`] beds (seeds 1, 2, …) and the bins pool their
+//! samples: the bed's grain arrangement scatters Δp_i by 2–6 % between
+//! seeds (README-simulate.md), and the tables should not carry one bed's
+//! accident.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -28,6 +32,9 @@ pub const GRAIN_RADIUS_MM: f64 = crate::simulate::scenario::DEFAULT_GRAIN_RADIUS
 
 /// Depths of the solver runs (mm): the paper's balloon experiment's.
 pub const DEPTHS_MM: [f64; 4] = [40.0, 50.0, 70.0, 100.0];
+
+/// Beds (seeds 1, 2, …) run at each depth by default.
+pub const DEFAULT_SEEDS: u64 = 3;
 
 /// Width of the diameter bins (mm): the firmware table's column spacing.
 pub const BIN_WIDTH_MM: f64 = 0.25;
@@ -88,6 +95,8 @@ pub struct RegenerateOptions {
     pub progress: bool,
     /// A user's set-up instead of the paper's.
     pub rig: Option<RigSetup>,
+    /// Beds per depth (seeds 1..=seeds), pooled in the bins (≥ 1).
+    pub seeds: u64,
 }
 
 /// A user's set-up for the solver runs ([`ScenarioSpec::with_rig`]).
@@ -109,6 +118,7 @@ impl RegenerateOptions {
             quick,
             progress: false,
             rig: None,
+            seeds: DEFAULT_SEEDS,
         }
     }
 
@@ -133,17 +143,21 @@ impl RegenerateOptions {
 pub struct DepthRun {
     /// Depth of the zone's axis (mm).
     pub depth_mm: f64,
-    /// Outer diameter after settling, where the bins start (mm).
+    /// Outer diameter after settling, where the bins start (mm); the
+    /// smallest of the seeds'.
     pub settled_diameter_mm: f64,
-    /// Last sample's D (mm).
+    /// Last sample's D (mm), mean over the seeds.
     pub final_diameter_mm: f64,
-    /// Last sample's p_e (kPa).
+    /// Last sample's p_e (kPa), mean over the seeds.
     pub final_p_e_kpa: f64,
+    /// Standard deviation of the last sample's p_e over the seeds (kPa);
+    /// 0 for one seed.
+    pub final_p_e_sd_kpa: f64,
     /// Grains in the run (slab and surcharge).
     pub grains: usize,
     /// The binned p_e.
     pub bins: Vec<Bin>,
-    /// Wall time of the run (s).
+    /// Wall time of the runs (s), all seeds.
     pub wall_s: f64,
 }
 
@@ -157,34 +171,56 @@ pub fn spec(depth_mm: f64, quick: bool) -> ScenarioSpec {
     }
 }
 
-/// Runs the solver at `depth_mm` (writing no files) and bins its p_e.
+/// Runs the solver at `depth_mm` for each seed (writing no files) and bins
+/// their pooled p_e.
 pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
+    ensure!(opts.seeds >= 1, "at least one seed per depth is needed");
     let t0 = Instant::now();
-    let spec = opts.spec(depth_mm)?;
-    let progress = opts.progress;
-    let final_mm = spec.final_diameter_m * 1e3;
-    let report = simulate(&Options {
-        spec,
-        out: None,
-        progress,
-    })
-    .with_context(|| format!("solver run at h = {depth_mm} mm"))?;
-    let last = report
-        .last()
-        .with_context(|| format!("the solver run at h = {depth_mm} mm gave no samples"))?;
-    let settled_mm = report.settled.sample.outer_diameter_m * 1e3;
-    let share = |s: &crate::coupling::Sample| report.sand_share_pa(s).unwrap_or(f64::NAN);
-    let points: Vec<(f64, f64)> = report
-        .samples
-        .iter()
-        .map(|s| (s.outer_diameter_m * 1e3, share(s) * 1e-3))
-        .collect();
+    let base = opts.spec(depth_mm)?;
+    let final_mm = base.final_diameter_m * 1e3;
+    let mut points: Vec<(f64, f64)> = Vec::new();
+    let (mut settled_mm, mut grains) = (f64::INFINITY, 0);
+    let mut finals = Vec::new();
+    for seed in base.seed..base.seed + opts.seeds {
+        let spec = ScenarioSpec {
+            seed,
+            ..base.clone()
+        };
+        let report = simulate(&Options {
+            spec,
+            out: None,
+            progress: opts.progress,
+        })
+        .with_context(|| format!("solver run at h = {depth_mm} mm, seed {seed}"))?;
+        let last = report.last().with_context(|| {
+            format!("the solver run at h = {depth_mm} mm, seed {seed} gave no samples")
+        })?;
+        let share = |s: &crate::coupling::Sample| report.sand_share_pa(s).unwrap_or(f64::NAN);
+        settled_mm = settled_mm.min(report.settled.sample.outer_diameter_m * 1e3);
+        grains = report.grains.0 + report.grains.1;
+        finals.push((last.outer_diameter_m * 1e3, share(last) * 1e-3));
+        points.extend(
+            report
+                .samples
+                .iter()
+                .map(|s| (s.outer_diameter_m * 1e3, share(s) * 1e-3)),
+        );
+    }
+    let n = finals.len() as f64;
+    let mean_d = finals.iter().map(|f| f.0).sum::<f64>() / n;
+    let mean_p = finals.iter().map(|f| f.1).sum::<f64>() / n;
+    let sd_p = if finals.len() > 1 {
+        (finals.iter().map(|f| (f.1 - mean_p).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
     Ok(DepthRun {
         depth_mm,
         settled_diameter_mm: settled_mm,
-        final_diameter_mm: last.outer_diameter_m * 1e3,
-        final_p_e_kpa: share(last) * 1e-3,
-        grains: report.grains.0 + report.grains.1,
+        final_diameter_mm: mean_d,
+        final_p_e_kpa: mean_p,
+        final_p_e_sd_kpa: sd_p,
+        grains,
         bins: bin_samples(&points, settled_mm, final_mm, BIN_WIDTH_MM),
         wall_s: t0.elapsed().as_secs_f64(),
     })
@@ -215,9 +251,14 @@ pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
             .map_or(String::new(), |d| format!(" --final-diameter-mm {d}"));
         format!(" --rig {}{d} --out FILE", r.file)
     });
+    let seeds_arg = if opts.seeds == DEFAULT_SEEDS {
+        String::new()
+    } else {
+        format!(" --seeds {}", opts.seeds)
+    };
     let _ = writeln!(
         s,
-        "# Regenerate: cargo sim solver-sand{}{rig_args}",
+        "# Regenerate: cargo sim solver-sand{}{seeds_arg}{rig_args}",
         if quick { " --quick" } else { "" }
     );
     let _ = writeln!(s, "# {UNIT_WEIGHT_KEY} = {unit_weight:.10}");
@@ -234,7 +275,10 @@ pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
         let _ = writeln!(s, "# final_diameter_mm = {}", probe.final_diameter_m * 1e3);
     }
     let _ = writeln!(s, "# run = {}", if quick { "quick" } else { "full" });
-    let _ = writeln!(s, "# seed = {}", probe.seed);
+    let seeds: Vec<String> = (probe.seed..probe.seed + opts.seeds)
+        .map(|k| k.to_string())
+        .collect();
+    let _ = writeln!(s, "# seeds = {}", seeds.join(" "));
     let _ = writeln!(s, "# bin_width_mm = {BIN_WIDTH_MM}");
     let _ = writeln!(s, "{}", COLUMNS.join(","));
     for r in runs {

@@ -160,6 +160,17 @@ impl Report {
             st.sample.internal_pressure_pa * 1e-3,
             st.kinetic_energy_j
         );
+        if let (true, Some(f)) = (self.spec.advance_m > 0.0, self.samples.first()) {
+            let _ = writeln!(
+                s,
+                "after the {:.2} mm advance (the expansion's start): D {:.2} mm, p_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa",
+                self.spec.advance_m * 1e3,
+                f.outer_diameter_m * 1e3,
+                f.internal_pressure_pa * 1e-3,
+                f.sand_pressure_pa * 1e-3,
+                f.face_pressure_pa.unwrap_or(f64::NAN) * 1e-3,
+            );
+        }
         if let (Some(l), Some(m)) = (self.last(), self.final_means()) {
             let _ = writeln!(
                 s,
