@@ -125,6 +125,8 @@ fn impossible_cases_are_refused_with_what_is_wrong() {
     );
     let e = err(ScenarioSpec::paper(40e-3, 0.0));
     assert!(e.contains("grain radius must be positive"), "{e}");
+    let e = err(ScenarioSpec::paper(-5e-3, 1.5e-3));
+    assert!(e.contains("depth -5 mm must be positive"), "{e}");
     let e = err(ScenarioSpec::paper(30e-3, 1.5e-3).with_surcharge(40e-3, 2));
     assert!(e.contains("depth 30 mm") && e.contains("40 mm"), "{e}");
     let e = err(ScenarioSpec {

@@ -436,7 +436,12 @@ impl ScenarioSpec {
             );
         }
         ensure!(
-            self.depth_m >= self.above_m && self.above_m > 0.0 && self.depth_m.is_finite(),
+            pos(self.depth_m),
+            "depth {} mm must be positive (the zone's axis below the sand surface)",
+            self.depth_m * 1e3
+        );
+        ensure!(
+            self.depth_m >= self.above_m && self.above_m > 0.0,
             "depth {} mm must be at or below the slab top at {} mm above the axis",
             self.depth_m * 1e3,
             self.above_m * 1e3
