@@ -24,7 +24,7 @@ use serde::Serialize;
 
 use super::solver::{SolverSand, COLUMNS, INITIAL_DIAMETER_KEY, UNIT_WEIGHT_KEY};
 use crate::experiment::Rig;
-use crate::simulate::{simulate, Options, ScenarioSpec};
+use crate::simulate::{Ensemble, ScenarioSpec};
 
 /// Grain radius of the solver runs (mm): the coarse-grained sand of
 /// `host-sim simulate`'s default case.
@@ -178,20 +178,13 @@ pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
     let t0 = Instant::now();
     let base = opts.spec(depth_mm)?;
     let final_mm = base.final_diameter_m * 1e3;
+    let seeds: Vec<u64> = (base.seed..base.seed + opts.seeds).collect();
+    let ensemble = Ensemble::run(&base, &seeds, None, opts.progress)
+        .with_context(|| format!("solver runs at h = {depth_mm} mm"))?;
     let mut points: Vec<(f64, f64)> = Vec::new();
     let (mut settled_mm, mut grains) = (f64::INFINITY, 0);
     let mut finals = Vec::new();
-    for seed in base.seed..base.seed + opts.seeds {
-        let spec = ScenarioSpec {
-            seed,
-            ..base.clone()
-        };
-        let report = simulate(&Options {
-            spec,
-            out: None,
-            progress: opts.progress,
-        })
-        .with_context(|| format!("solver run at h = {depth_mm} mm, seed {seed}"))?;
+    for (report, seed) in ensemble.reports.iter().zip(&seeds) {
         let last = report.last().with_context(|| {
             format!("the solver run at h = {depth_mm} mm, seed {seed} gave no samples")
         })?;
