@@ -102,7 +102,7 @@ enum Command {
         seed: u64,
         /// Run the case for this many seeds (seed, seed + 1, ...), each in
         /// its own seed-S folder, and report mean ± SD (ensemble.csv,
-        /// ensemble.txt).
+        /// ensemble.txt, and ensemble.svg: p_i, Δp_i, p_h against D).
         #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
         seeds: u64,
         /// Folder for the results; default out/simulate-hDEPTH.

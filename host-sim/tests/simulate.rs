@@ -342,6 +342,12 @@ fn an_ensemble_reports_each_seeds_run_and_their_mean_and_sd() {
     for f in ["seed-4/samples.csv", "seed-5/summary.txt", "ensemble.txt"] {
         assert!(dir.path().join(f).exists(), "{f}");
     }
+    let svg = std::fs::read_to_string(dir.path().join("ensemble.svg")).unwrap();
+    assert!(
+        svg.starts_with("<svg") && svg.contains("mean ± SD"),
+        "{}",
+        &svg[..200.min(svg.len())]
+    );
 }
 
 #[test]

@@ -89,8 +89,8 @@ const METRICS: [(&str, Reader); 12] = [
 
 impl Ensemble {
     /// Runs `spec` once per seed in `seeds` (each run's files, if `out` is
-    /// given, in `out/seed-S`), then writes `ensemble.csv` and
-    /// `ensemble.txt` to `out`.
+    /// given, in `out/seed-S`), then writes `ensemble.csv`, `ensemble.txt`
+    /// and `ensemble.svg` (p_i, Δp_i, p_h against D, mean ± SD) to `out`.
     pub fn run(
         spec: &ScenarioSpec,
         seeds: &[u64],
@@ -118,6 +118,13 @@ impl Ensemble {
         if let Some(dir) = out {
             output::write_text(dir, "ensemble.csv", &ensemble.csv()?)?;
             output::write_text(dir, "ensemble.txt", ensemble.text().as_bytes())?;
+            let title = format!(
+                "h = {:.0} mm, {} seeds: mean ± SD over the runs",
+                spec.depth_m * 1e3,
+                seeds.len()
+            );
+            let svg = output::ensemble_plot_svg(&ensemble.reports, &title)?;
+            output::write_text(dir, "ensemble.svg", svg.as_bytes())?;
         }
         Ok(ensemble)
     }
@@ -201,5 +208,22 @@ mod tests {
         };
         assert_eq!(one.mean(), 3.0);
         assert!(one.sd().is_nan());
+    }
+
+    #[test]
+    fn mean_and_sd_over_runs_per_diameter_bin() {
+        // Run 0: two samples in the first bin (means D 19.1, value 2),
+        // one in the third. Run 1: one sample in the first bin (value 4).
+        let runs = vec![
+            vec![(19.0, 1.0), (19.2, 3.0), (19.6, 5.0)],
+            vec![(19.1, 4.0), (f64::NAN, 9.0)],
+        ];
+        let bins = output::mean_sd_against_d(&runs);
+        assert_eq!(bins.len(), 2);
+        let (d, v, sd) = bins[0];
+        assert!((d - 19.1).abs() < 1e-12 && (v - 3.0).abs() < 1e-12);
+        // Run means 2 and 4: sample SD √2.
+        assert!((sd - 2f64.sqrt()).abs() < 1e-12);
+        assert_eq!(bins[1], (19.6, 5.0, 0.0));
     }
 }

@@ -1,5 +1,6 @@
 //! Result files of a scenario run: the samples as CSV, the pressures and
-//! the head receding distance against D as SVG plots, and VTK frames
+//! the head receding distance against D as SVG plots (and an ensemble's
+//! pressures as mean ± SD bands), and VTK frames
 //! (grains as points with their radius, the skin mesh) with `.vtk.series`
 //! indexes for ParaView. All written atomically.
 
@@ -89,7 +90,7 @@ pub fn pressure_plot_svg(report: &Report, title: &str) -> Result<String> {
             GREEN,
         ),
     ];
-    chart_svg(title, "pressure (kPa)", &curves)
+    chart_svg(title, "pressure (kPa)", &curves, &[])
 }
 
 /// The head receding distance D_r (mm) against D (mm) as SVG text (the
@@ -100,20 +101,115 @@ pub fn head_plot_svg(report: &Report, title: &str) -> Result<String> {
         against_d(report, 1e3, &|s| s.head_receding_m),
         BLUE,
     )];
-    chart_svg(title, "D_r (mm)", &curves)
+    chart_svg(title, "D_r (mm)", &curves, &[])
 }
 
-/// A line chart of `curves` against the outer diameter, y from
-/// min(0, data) up.
-fn chart_svg(title: &str, y_desc: &str, curves: &[Curve]) -> Result<String> {
-    let all = curves.iter().flat_map(|c| c.1.iter());
+/// A shaded band between two curves against D: (D mm, low, high), colour.
+type Band = (Vec<(f64, f64, f64)>, RGBColor);
+
+/// Width of the diameter bins of the ensemble plot (mm).
+pub const ENSEMBLE_BIN_MM: f64 = 0.25;
+
+/// Mean ± SD over runs of one quantity against D: each run's samples are
+/// averaged in [`ENSEMBLE_BIN_MM`] bins from the smallest D of all runs,
+/// then each bin's run means give the mean and the sample SD (0 where
+/// only one run reached the bin). `runs[k]` holds run k's (D mm, value)
+/// points; returns (mean D, mean, SD) per bin that any run reached.
+pub fn mean_sd_against_d(runs: &[Vec<(f64, f64)>]) -> Vec<(f64, f64, f64)> {
+    let d0 = runs.iter().flatten().fold(f64::INFINITY, |a, p| a.min(p.0));
+    // bin → per run (sum D, sum value, count)
+    let mut bins: std::collections::BTreeMap<i64, Vec<(f64, f64, usize)>> = Default::default();
+    for (k, run) in runs.iter().enumerate() {
+        for &(d, v) in run {
+            if !(d.is_finite() && v.is_finite()) {
+                continue;
+            }
+            let b = ((d - d0) / ENSEMBLE_BIN_MM).floor() as i64;
+            let slot = &mut bins
+                .entry(b)
+                .or_insert_with(|| vec![(0.0, 0.0, 0); runs.len()])[k];
+            slot.0 += d;
+            slot.1 += v;
+            slot.2 += 1;
+        }
+    }
+    bins.values()
+        .map(|per_run| {
+            let means: Vec<(f64, f64)> = per_run
+                .iter()
+                .filter(|r| r.2 > 0)
+                .map(|r| (r.0 / r.2 as f64, r.1 / r.2 as f64))
+                .collect();
+            let n = means.len() as f64;
+            let d = means.iter().map(|m| m.0).sum::<f64>() / n;
+            let v = means.iter().map(|m| m.1).sum::<f64>() / n;
+            let sd = if means.len() > 1 {
+                (means.iter().map(|m| (m.1 - v).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+            } else {
+                0.0
+            };
+            (d, v, sd)
+        })
+        .collect()
+}
+
+/// p_i, Δp_i and p_h (kPa) against D (mm) over the runs of an ensemble:
+/// the mean over the runs as a line, ± one SD as a band, as SVG text.
+pub fn ensemble_plot_svg(reports: &[Report], title: &str) -> Result<String> {
+    type Read = fn(&Report, &Sample) -> f64;
+    let quantities: [(&'static str, Read, RGBColor); 3] = [
+        (
+            "p_i (internal), mean ± SD",
+            |_, s| s.internal_pressure_pa,
+            BLUE,
+        ),
+        (
+            "Δp_i (the sand's share), mean ± SD",
+            |r, s| r.sand_share_pa(s).unwrap_or(f64::NAN),
+            MAGENTA,
+        ),
+        (
+            "p_h (front face), mean ± SD",
+            |_, s| s.face_pressure_pa.unwrap_or(f64::NAN),
+            GREEN,
+        ),
+    ];
+    let mut curves = Vec::new();
+    let mut bands = Vec::new();
+    for (name, read, colour) in quantities {
+        let runs: Vec<Vec<(f64, f64)>> = reports
+            .iter()
+            .map(|r| against_d(r, 1e-3, &|s| read(r, s)))
+            .collect();
+        let stats = mean_sd_against_d(&runs);
+        curves.push((name, stats.iter().map(|s| (s.0, s.1)).collect(), colour));
+        bands.push((
+            stats.iter().map(|s| (s.0, s.1 - s.2, s.1 + s.2)).collect(),
+            colour,
+        ));
+    }
+    chart_svg(title, "pressure (kPa)", &curves, &bands)
+}
+
+/// A line chart of `curves` over shaded `bands` against the outer
+/// diameter, y from min(0, data) up.
+fn chart_svg(title: &str, y_desc: &str, curves: &[Curve], bands: &[Band]) -> Result<String> {
+    let band_points = bands
+        .iter()
+        .flat_map(|b| b.0.iter().flat_map(|p| [(p.0, p.1), (p.0, p.2)]));
+    let all: Vec<(f64, f64)> = curves
+        .iter()
+        .flat_map(|c| c.1.iter().copied())
+        .chain(band_points)
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect();
     let (x0, x1) = all
-        .clone()
+        .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
             (a.min(p.0), b.max(p.0))
         });
-    let y0 = all.clone().fold(0.0f64, |a, p| a.min(p.1)) * 1.05;
-    let y1 = all.fold(0.0f64, |a, p| a.max(p.1)) * 1.05 + 1e-3;
+    let y0 = all.iter().fold(0.0f64, |a, p| a.min(p.1)) * 1.05;
+    let y1 = all.iter().fold(0.0f64, |a, p| a.max(p.1)) * 1.05 + 1e-3;
     let (x0, x1) = if x0 < x1 { (x0, x1) } else { (18.0, 26.0) };
     let mut svg = String::new();
     {
@@ -132,6 +228,19 @@ fn chart_svg(title: &str, y_desc: &str, curves: &[Curve]) -> Result<String> {
             .y_desc(y_desc)
             .draw()
             .map_err(plot_err)?;
+        for (band, colour) in bands {
+            let outline: Vec<(f64, f64)> = band
+                .iter()
+                .map(|p| (p.0, p.2))
+                .chain(band.iter().rev().map(|p| (p.0, p.1)))
+                .collect();
+            chart
+                .draw_series(std::iter::once(Polygon::new(
+                    outline,
+                    colour.mix(0.2).filled(),
+                )))
+                .map_err(plot_err)?;
+        }
         for (name, data, colour) in curves {
             let colour = *colour;
             chart
