@@ -116,6 +116,21 @@ fn the_free_skin_curve_is_the_relaxed_skin_without_sand() {
 }
 
 #[test]
+fn the_balloon_experiment_is_named_only_for_the_papers_case() {
+    let b = ScenarioSpec::paper(70e-3, 1.5e-3).balloon_point().unwrap();
+    assert_eq!(
+        (b.depth_mm, b.external_pressure_kpa, b.sd_kpa),
+        (70.0, 7.24, 1.05)
+    );
+    assert!(ScenarioSpec::paper(60e-3, 1.5e-3).balloon_point().is_none());
+    let wider = ScenarioSpec {
+        final_diameter_m: 27e-3,
+        ..ScenarioSpec::paper(40e-3, 1.5e-3)
+    };
+    assert!(wider.balloon_point().is_none());
+}
+
+#[test]
 fn impossible_cases_are_refused_with_what_is_wrong() {
     let err = |spec: ScenarioSpec| host_sim::simulate::build(&spec).unwrap_err().to_string();
     let e = err(ScenarioSpec::paper(15e-3, 1.5e-3));

@@ -189,6 +189,13 @@ impl Report {
                 m.max_von_mises_pa * 1e-6,
             );
         }
+        if let Some(b) = self.spec.balloon_point() {
+            let _ = writeln!(
+                s,
+                "paper at h = {:.0} mm: p_e {:.2} ± {:.2} kPa (balloon experiment; compare Δp_i)",
+                b.depth_mm, b.external_pressure_kpa, b.sd_kpa
+            );
+        }
         if self.spec.tube == TubeGeometry::PAPER {
             let _ = writeln!(
                 s,

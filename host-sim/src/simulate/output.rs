@@ -14,6 +14,7 @@ use super::Report;
 use crate::coupling::Sample;
 use crate::dem::Particles;
 use crate::files::write_atomic;
+use crate::sand::{BalloonPoint, BALLOON_FINAL_DIAMETER_MM};
 
 /// The samples as CSV: time, D, p_i, p_e, p_h, max von Mises, contacts,
 /// head receding distance D_r, the sand's share of p_i.
@@ -90,7 +91,13 @@ pub fn pressure_plot_svg(report: &Report, title: &str) -> Result<String> {
             GREEN,
         ),
     ];
-    chart_svg(title, "pressure (kPa)", &curves, &[])
+    chart_svg(
+        title,
+        "pressure (kPa)",
+        &curves,
+        &[],
+        report.spec.balloon_point(),
+    )
 }
 
 /// The head receding distance D_r (mm) against D (mm) as SVG text (the
@@ -101,7 +108,7 @@ pub fn head_plot_svg(report: &Report, title: &str) -> Result<String> {
         against_d(report, 1e3, &|s| s.head_receding_m),
         BLUE,
     )];
-    chart_svg(title, "D_r (mm)", &curves, &[])
+    chart_svg(title, "D_r (mm)", &curves, &[], None)
 }
 
 /// A shaded band between two curves against D: (D mm, low, high), colour.
@@ -188,12 +195,20 @@ pub fn ensemble_plot_svg(reports: &[Report], title: &str) -> Result<String> {
             colour,
         ));
     }
-    chart_svg(title, "pressure (kPa)", &curves, &bands)
+    let balloon = reports.first().and_then(|r| r.spec.balloon_point());
+    chart_svg(title, "pressure (kPa)", &curves, &bands, balloon)
 }
 
 /// A line chart of `curves` over shaded `bands` against the outer
-/// diameter, y from min(0, data) up.
-fn chart_svg(title: &str, y_desc: &str, curves: &[Curve], bands: &[Band]) -> Result<String> {
+/// diameter, y from min(0, data) up, with the balloon experiment's p_e ± SD
+/// at its diameter when given.
+fn chart_svg(
+    title: &str,
+    y_desc: &str,
+    curves: &[Curve],
+    bands: &[Band],
+    balloon: Option<BalloonPoint>,
+) -> Result<String> {
     let band_points = bands
         .iter()
         .flat_map(|b| b.0.iter().flat_map(|p| [(p.0, p.1), (p.0, p.2)]));
@@ -201,6 +216,13 @@ fn chart_svg(title: &str, y_desc: &str, curves: &[Curve], bands: &[Band]) -> Res
         .iter()
         .flat_map(|c| c.1.iter().copied())
         .chain(band_points)
+        .chain(balloon.iter().flat_map(|b| {
+            let d = BALLOON_FINAL_DIAMETER_MM;
+            [
+                (d, b.external_pressure_kpa + b.sd_kpa),
+                (d, b.external_pressure_kpa - b.sd_kpa),
+            ]
+        }))
         .filter(|p| p.0.is_finite() && p.1.is_finite())
         .collect();
     let (x0, x1) = all
@@ -211,6 +233,13 @@ fn chart_svg(title: &str, y_desc: &str, curves: &[Curve], bands: &[Band]) -> Res
     let y0 = all.iter().fold(0.0f64, |a, p| a.min(p.1)) * 1.05;
     let y1 = all.iter().fold(0.0f64, |a, p| a.max(p.1)) * 1.05 + 1e-3;
     let (x0, x1) = if x0 < x1 { (x0, x1) } else { (18.0, 26.0) };
+    // Room for the error bar's caps at the right edge.
+    let x1 = x1
+        + if balloon.is_some() {
+            0.03 * (x1 - x0)
+        } else {
+            0.0
+        };
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (900, 560)).into_drawing_area();
@@ -248,6 +277,24 @@ fn chart_svg(title: &str, y_desc: &str, curves: &[Curve], bands: &[Band]) -> Res
                 .map_err(plot_err)?
                 .label(*name)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+        }
+        if let Some(b) = balloon {
+            let (d, p, sd) = (BALLOON_FINAL_DIAMETER_MM, b.external_pressure_kpa, b.sd_kpa);
+            chart
+                .draw_series(std::iter::once(ErrorBar::new_vertical(
+                    d,
+                    p - sd,
+                    p,
+                    p + sd,
+                    BLACK.filled().stroke_width(2),
+                    12,
+                )))
+                .map_err(plot_err)?
+                .label(format!(
+                    "balloon experiment at h = {:.0} mm, p_e ± SD (compare Δp_i)",
+                    b.depth_mm
+                ))
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
         }
         chart
             .configure_series_labels()

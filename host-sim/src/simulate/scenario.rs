@@ -29,6 +29,7 @@ use crate::coupling::{Coupling, FrontFace};
 use crate::dem::{ContactModel, ContactSpec, Material, Params, Particles, State, Wall};
 use crate::experiment::Rig;
 use crate::fem::{Ends, FemError, Skin, SkinSpec, VolumeControl};
+use crate::sand::{BalloonPoint, BALLOON_FINAL_DIAMETER_MM, BALLOON_TABLE};
 use crate::skin::membrane::TubeGeometry;
 use crate::skin::{default_skin, StrainEnergy, Yeoh};
 
@@ -404,6 +405,19 @@ impl ScenarioSpec {
             Vector3::new(-half_x, low_y, front),
             Vector3::new(half_x, half, back),
         ))
+    }
+
+    /// The paper's balloon experiment at this case's depth (its p_e, the
+    /// like of Δp_i, ± SD), for the paper's actuator expanded to the
+    /// paper's 25 mm at one of the experiment's depths; `None` otherwise.
+    pub fn balloon_point(&self) -> Option<BalloonPoint> {
+        let paper = self.tube == TubeGeometry::PAPER
+            && (self.final_diameter_m * 1e3 - BALLOON_FINAL_DIAMETER_MM).abs() < 1e-9;
+        let h_mm = self.depth_m * 1e3;
+        BALLOON_TABLE
+            .iter()
+            .find(|b| paper && (b.depth_mm - h_mm).abs() < 1e-6)
+            .copied()
     }
 
     /// DEM time step (s): the throughput benchmark's 1.5e-5 s for 1 mm
