@@ -103,7 +103,7 @@ enum Command {
         /// Run the case for this many seeds (seed, seed + 1, ...), each in
         /// its own seed-S folder, and report mean ± SD (ensemble.csv,
         /// ensemble.txt, and ensemble.svg: p_i, Δp_i, p_h against D).
-        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=1000))]
         seeds: u64,
         /// Folder for the results; default out/simulate-hDEPTH.
         #[arg(long)]
@@ -134,7 +134,7 @@ enum Command {
         #[arg(long = "final-diameter-mm", requires = "rig")]
         final_diameter_mm: Option<f64>,
         /// Beds per depth (seeds 1, 2, …), their samples pooled in the bins.
-        #[arg(long, default_value_t = host_sim::sand::regenerate::DEFAULT_SEEDS, value_parser = clap::value_parser!(u64).range(1..))]
+        #[arg(long, default_value_t = host_sim::sand::regenerate::DEFAULT_SEEDS, value_parser = clap::value_parser!(u64).range(1..=1000))]
         seeds: u64,
     },
     /// Benchmarks (`bench dem`: the DEM throughput problem of shared/bench).
