@@ -24,6 +24,7 @@ use serde::Serialize;
 
 use super::solver::{SolverSand, COLUMNS, INITIAL_DIAMETER_KEY, UNIT_WEIGHT_KEY};
 use crate::experiment::Rig;
+use crate::simulate::ensemble::mean_sd;
 use crate::simulate::{Ensemble, ScenarioSpec};
 
 /// Grain radius of the solver runs (mm): the coarse-grained sand of
@@ -199,14 +200,8 @@ pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
                 .map(|s| (s.outer_diameter_m * 1e3, share(s) * 1e-3)),
         );
     }
-    let n = finals.len() as f64;
-    let mean_d = finals.iter().map(|f| f.0).sum::<f64>() / n;
-    let mean_p = finals.iter().map(|f| f.1).sum::<f64>() / n;
-    let sd_p = if finals.len() > 1 {
-        (finals.iter().map(|f| (f.1 - mean_p).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-    } else {
-        0.0
-    };
+    let mean_d = mean_sd(&finals.iter().map(|f| f.0).collect::<Vec<_>>()).0;
+    let (mean_p, sd_p) = mean_sd(&finals.iter().map(|f| f.1).collect::<Vec<_>>());
     Ok(DepthRun {
         depth_mm,
         settled_diameter_mm: settled_mm,

@@ -20,21 +20,31 @@ pub struct Metric {
     pub values: Vec<f64>,
 }
 
+/// Mean and sample standard deviation (n − 1) of `values`; the SD is 0
+/// for a single value, both NaN for none.
+pub fn mean_sd(values: &[f64]) -> (f64, f64) {
+    let n = values.len();
+    let m = values.iter().sum::<f64>() / n as f64;
+    let sd = match n {
+        0 => f64::NAN,
+        1 => 0.0,
+        _ => (values.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1) as f64).sqrt(),
+    };
+    (m, sd)
+}
+
 impl Metric {
     /// Mean over the runs (NaN for none).
     pub fn mean(&self) -> f64 {
-        self.values.iter().sum::<f64>() / self.values.len() as f64
+        mean_sd(&self.values).0
     }
 
     /// Sample standard deviation (n − 1); NaN for fewer than two runs.
     pub fn sd(&self) -> f64 {
-        let n = self.values.len();
-        if n < 2 {
+        if self.values.len() < 2 {
             return f64::NAN;
         }
-        let m = self.mean();
-        let ss: f64 = self.values.iter().map(|v| (v - m) * (v - m)).sum();
-        (ss / (n - 1) as f64).sqrt()
+        mean_sd(&self.values).1
     }
 }
 
@@ -208,6 +218,9 @@ mod tests {
         };
         assert_eq!(one.mean(), 3.0);
         assert!(one.sd().is_nan());
+        // The plain helper calls one value's spread 0 (bands, one seed).
+        assert_eq!(mean_sd(&[3.0]), (3.0, 0.0));
+        assert!(mean_sd(&[]).0.is_nan());
     }
 
     #[test]

@@ -10,6 +10,7 @@ use std::path::Path;
 use anyhow::{anyhow, Context, Result};
 use plotters::prelude::*;
 
+use super::ensemble::mean_sd;
 use super::Report;
 use crate::coupling::Sample;
 use crate::dem::Particles;
@@ -147,14 +148,8 @@ pub fn mean_sd_against_d(runs: &[Vec<(f64, f64)>]) -> Vec<(f64, f64, f64)> {
                 .filter(|r| r.2 > 0)
                 .map(|r| (r.0 / r.2 as f64, r.1 / r.2 as f64))
                 .collect();
-            let n = means.len() as f64;
-            let d = means.iter().map(|m| m.0).sum::<f64>() / n;
-            let v = means.iter().map(|m| m.1).sum::<f64>() / n;
-            let sd = if means.len() > 1 {
-                (means.iter().map(|m| (m.1 - v).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-            } else {
-                0.0
-            };
+            let d = mean_sd(&means.iter().map(|m| m.0).collect::<Vec<_>>()).0;
+            let (v, sd) = mean_sd(&means.iter().map(|m| m.1).collect::<Vec<_>>());
             (d, v, sd)
         })
         .collect()
