@@ -128,6 +128,11 @@ fn the_balloon_experiment_is_named_only_for_the_papers_case() {
         ..ScenarioSpec::paper(40e-3, 1.5e-3)
     };
     assert!(wider.balloon_point().is_none());
+    let fresh_water = ScenarioSpec {
+        water_density_kg_m3: 1000.0,
+        ..ScenarioSpec::paper(40e-3, 1.5e-3)
+    };
+    assert!(fresh_water.balloon_point().is_none());
 }
 
 #[test]

@@ -409,10 +409,14 @@ impl ScenarioSpec {
 
     /// The paper's balloon experiment at this case's depth (its p_e, the
     /// like of Δp_i, ± SD), for the paper's actuator expanded to the
-    /// paper's 25 mm at one of the experiment's depths; `None` otherwise.
+    /// paper's 25 mm in the paper's sand and water at one of the
+    /// experiment's depths; `None` otherwise.
     pub fn balloon_point(&self) -> Option<BalloonPoint> {
         let paper = self.tube == TubeGeometry::PAPER
-            && (self.final_diameter_m * 1e3 - BALLOON_FINAL_DIAMETER_MM).abs() < 1e-9;
+            && (self.final_diameter_m * 1e3 - BALLOON_FINAL_DIAMETER_MM).abs() < 1e-9
+            && self.grain_density_kg_m3 == GRAIN_DENSITY_KG_M3
+            && self.water_density_kg_m3 == WATER_DENSITY_KG_M3
+            && self.friction == FRICTION;
         let h_mm = self.depth_m * 1e3;
         BALLOON_TABLE
             .iter()
