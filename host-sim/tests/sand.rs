@@ -280,7 +280,7 @@ fn a_solver_run_needs_a_seed() {
         seeds: 0,
         ..RegenerateOptions::paper(vec![40.0], true)
     };
-    let e = run_depth(&opts, 40.0).unwrap_err().to_string();
+    let e = format!("{:#}", run_depth(&opts, 40.0).unwrap_err());
     assert!(e.contains("at least one seed"), "{e}");
 }
 

@@ -56,6 +56,20 @@ pub struct Bin {
 /// `end_mm`: each bin's mean D and mean p_e; empty bins, points outside
 /// and non-finite points are left out.
 pub fn bin_samples(points: &[(f64, f64)], start_mm: f64, end_mm: f64, width_mm: f64) -> Vec<Bin> {
+    bin_samples_indexed(points, start_mm, end_mm, width_mm)
+        .into_iter()
+        .map(|(_, b)| b)
+        .collect()
+}
+
+/// [`bin_samples`] with each bin's index k (the bin [start + k·width,
+/// start + (k + 1)·width)), so bins of several runs can be matched.
+pub fn bin_samples_indexed(
+    points: &[(f64, f64)],
+    start_mm: f64,
+    end_mm: f64,
+    width_mm: f64,
+) -> Vec<(usize, Bin)> {
     if !(width_mm > 0.0 && start_mm.is_finite() && end_mm.is_finite() && end_mm > start_mm) {
         return Vec::new();
     }
@@ -76,11 +90,17 @@ pub fn bin_samples(points: &[(f64, f64)], start_mm: f64, end_mm: f64, width_mm: 
         }
     }
     sums.into_iter()
-        .filter(|s| s.2 > 0)
-        .map(|(d, p, n)| Bin {
-            diameter_mm: d / n as f64,
-            p_e_kpa: p / n as f64,
-            samples: n,
+        .enumerate()
+        .filter(|(_, s)| s.2 > 0)
+        .map(|(k, (d, p, n))| {
+            (
+                k,
+                Bin {
+                    diameter_mm: d / n as f64,
+                    p_e_kpa: p / n as f64,
+                    samples: n,
+                },
+            )
         })
         .collect()
 }
@@ -121,6 +141,11 @@ impl RegenerateOptions {
             rig: None,
             seeds: DEFAULT_SEEDS,
         }
+    }
+
+    /// The seeds run at each depth: `self.seeds` of them from `spec`'s.
+    pub fn seed_list(&self, spec: &ScenarioSpec) -> Vec<u64> {
+        (spec.seed..spec.seed + self.seeds).collect()
     }
 
     /// The solver case at `depth_mm`: [`spec`], with the rig's set-up.
@@ -175,11 +200,10 @@ pub fn spec(depth_mm: f64, quick: bool) -> ScenarioSpec {
 /// Runs the solver at `depth_mm` for each seed (writing no files) and bins
 /// their pooled p_e.
 pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
-    ensure!(opts.seeds >= 1, "at least one seed per depth is needed");
     let t0 = Instant::now();
     let base = opts.spec(depth_mm)?;
     let final_mm = base.final_diameter_m * 1e3;
-    let seeds: Vec<u64> = (base.seed..base.seed + opts.seeds).collect();
+    let seeds = opts.seed_list(&base);
     let ensemble = Ensemble::run(&base, &seeds, None, opts.progress)
         .with_context(|| format!("solver runs at h = {depth_mm} mm"))?;
     let mut points: Vec<(f64, f64)> = Vec::new();
@@ -263,7 +287,9 @@ pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
         let _ = writeln!(s, "# final_diameter_mm = {}", probe.final_diameter_m * 1e3);
     }
     let _ = writeln!(s, "# run = {}", if quick { "quick" } else { "full" });
-    let seeds: Vec<String> = (probe.seed..probe.seed + opts.seeds)
+    let seeds: Vec<String> = opts
+        .seed_list(&probe)
+        .iter()
         .map(|k| k.to_string())
         .collect();
     let _ = writeln!(s, "# seeds = {}", seeds.join(" "));

@@ -15,6 +15,7 @@ use super::Report;
 use crate::coupling::Sample;
 use crate::dem::Particles;
 use crate::files::write_atomic;
+use crate::sand::regenerate::bin_samples_indexed;
 use crate::sand::{BalloonPoint, BALLOON_FINAL_DIAMETER_MM};
 
 /// The samples as CSV: time, D, p_i, p_e, p_h, max von Mises, contacts,
@@ -124,30 +125,18 @@ pub const ENSEMBLE_BIN_MM: f64 = 0.25;
 /// only one run reached the bin). `runs[k]` holds run k's (D mm, value)
 /// points; returns (mean D, mean, SD) per bin that any run reached.
 pub fn mean_sd_against_d(runs: &[Vec<(f64, f64)>]) -> Vec<(f64, f64, f64)> {
-    let d0 = runs.iter().flatten().fold(f64::INFINITY, |a, p| a.min(p.0));
-    // bin → per run (sum D, sum value, count)
-    let mut bins: std::collections::BTreeMap<i64, Vec<(f64, f64, usize)>> = Default::default();
-    for (k, run) in runs.iter().enumerate() {
-        for &(d, v) in run {
-            if !(d.is_finite() && v.is_finite()) {
-                continue;
-            }
-            let b = ((d - d0) / ENSEMBLE_BIN_MM).floor() as i64;
-            let slot = &mut bins
-                .entry(b)
-                .or_insert_with(|| vec![(0.0, 0.0, 0); runs.len()])[k];
-            slot.0 += d;
-            slot.1 += v;
-            slot.2 += 1;
+    let finite = || runs.iter().flatten().filter(|p| p.0.is_finite());
+    let d0 = finite().fold(f64::INFINITY, |a, p| a.min(p.0));
+    let end = finite().fold(f64::NEG_INFINITY, |a, p| a.max(p.0)) + ENSEMBLE_BIN_MM;
+    // bin index → each run's mean (D, value) in it
+    let mut bins: std::collections::BTreeMap<usize, Vec<(f64, f64)>> = Default::default();
+    for run in runs {
+        for (k, b) in bin_samples_indexed(run, d0, end, ENSEMBLE_BIN_MM) {
+            bins.entry(k).or_default().push((b.diameter_mm, b.p_e_kpa));
         }
     }
     bins.values()
-        .map(|per_run| {
-            let means: Vec<(f64, f64)> = per_run
-                .iter()
-                .filter(|r| r.2 > 0)
-                .map(|r| (r.0 / r.2 as f64, r.1 / r.2 as f64))
-                .collect();
+        .map(|means| {
             let d = mean_sd(&means.iter().map(|m| m.0).collect::<Vec<_>>()).0;
             let (v, sd) = mean_sd(&means.iter().map(|m| m.1).collect::<Vec<_>>());
             (d, v, sd)
