@@ -104,6 +104,8 @@ pub struct BenchOptions {
     pub steps_scale: f64,
     /// Show a progress bar on stderr.
     pub progress: bool,
+    /// Vector instructions of the contact pass (set process-wide).
+    pub simd: dem::Simd,
 }
 
 /// One timed phase.
@@ -138,6 +140,8 @@ pub struct BenchReport {
     pub z_mean_m: f64,
     /// Neighbour-list builds.
     pub list_builds: u64,
+    /// Vector instructions the contact pass ran with.
+    pub simd: dem::Simd,
 }
 
 impl BenchReport {
@@ -147,8 +151,8 @@ impl BenchReport {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "DEM bench: {} particles, {} worker(s)",
-            self.particles, self.workers
+            "DEM bench: {} particles, {} worker(s), contact pass {:?}",
+            self.particles, self.workers, self.simd
         );
         for p in &self.phases {
             let _ = writeln!(
@@ -171,8 +175,8 @@ impl BenchReport {
         );
         let _ = writeln!(
             s,
-            "RESULT workers={} overall_psps={:.0} mean_contacts={:.4}",
-            self.workers, self.overall_particle_steps_per_s, self.mean_contacts
+            "RESULT workers={} overall_psps={:.0} mean_contacts={:.4} simd={:?}",
+            self.workers, self.overall_particle_steps_per_s, self.mean_contacts, self.simd
         );
         s
     }
@@ -201,6 +205,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
         .num_threads(opts.workers)
         .build()
         .context("starting the worker threads")?;
+    let simd = dem::use_simd(opts.simd);
     let (params, mut state) = problem()?;
     let n = state.particles.len();
     let phases: Vec<(&'static str, u64)> = PHASES
@@ -254,6 +259,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
         z_max_m: z.clone().fold(f64::NEG_INFINITY, f64::max),
         z_mean_m: z.sum::<f64>() / n as f64,
         list_builds: state.neighbours().builds,
+        simd,
     })
 }
 

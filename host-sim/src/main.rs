@@ -229,7 +229,19 @@ enum BenchCommand {
         /// Multiply every phase's step count (e.g. 0.05 for a smoke test).
         #[arg(long = "steps-scale", default_value_t = 1.0)]
         steps_scale: f64,
+        /// Vector instructions of the contact pass: the best this CPU has
+        /// (AVX2 where present), or the SSE2 baseline of every x86-64.
+        /// Same results either way.
+        #[arg(long, value_enum, default_value = "best")]
+        simd: SimdChoice,
     },
+}
+
+/// `bench dem --simd`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum SimdChoice {
+    Best,
+    Baseline,
 }
 
 /// Reads the set-up `path` names: a rig.toml, or the one in an experiment
@@ -420,12 +432,17 @@ fn run(cli: Cli) -> Result<()> {
                 BenchCommand::Dem {
                     workers,
                     steps_scale,
+                    simd,
                 },
         } => {
             let report = host_sim::bench::run(&host_sim::bench::BenchOptions {
                 workers,
                 steps_scale,
                 progress: true,
+                simd: match simd {
+                    SimdChoice::Best => host_sim::dem::best_simd(),
+                    SimdChoice::Baseline => host_sim::dem::Simd::Baseline,
+                },
             })?;
             print!("{}", report.table());
         }

@@ -474,12 +474,17 @@ fn submerged_settled_bed_walls_carry_its_buoyant_weight() {
 }
 
 #[test]
-fn bit_identical_for_one_and_two_threads() {
-    let run = |threads: usize| {
+fn bit_identical_for_any_thread_count_and_instruction_set() {
+    // 1 thread: one block; 2 and 3 threads: 4 and 6 blocks, so pairs
+    // straddle blocks; the baseline (SSE2) and the best (AVX2 here) copies
+    // of the contact pass. The instruction set is process-wide, so the runs
+    // go one after the other.
+    let run = |threads: usize, simd: host_sim::dem::Simd| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
+        host_sim::dem::use_simd(simd);
         pool.install(|| {
             let (params, mut state) = small_bed(6, 0.0);
             for _ in 0..1_500 {
@@ -492,15 +497,21 @@ fn bit_identical_for_one_and_two_threads() {
             )
         })
     };
-    let a = run(1);
-    let b = run(2);
-    let c = run(2);
+    let best = host_sim::dem::best_simd();
+    let base = host_sim::dem::Simd::Baseline;
+    let a = run(1, base);
     assert!(
         a.0.iter().any(|x| x.z < 1.0e-3 + 2.4e-3 * 5.0 - 1e-3),
         "the bed moved"
     );
-    assert_eq!(a, b);
-    assert_eq!(b, c);
+    assert!(
+        a == run(1, best),
+        "1 thread: {best:?} differs from the baseline"
+    );
+    assert!(a == run(2, best), "2 threads differ from 1");
+    assert!(a == run(3, base), "3 threads differ from 1");
+    assert!(a == run(2, best), "a second 2-thread run differs");
+    host_sim::dem::use_simd(best);
 }
 
 #[test]

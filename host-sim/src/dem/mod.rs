@@ -4,8 +4,8 @@
 //! from a restitution coefficient, optional rolling resistance, gravity with
 //! buoyancy, plane and cylinder walls; a Verlet neighbour list on a cell
 //! grid; velocity-Verlet integration; parallel with rayon and bit-for-bit
-//! deterministic whatever the thread count (every force sum is gathered per
-//! particle in a fixed order).
+//! deterministic whatever the thread count (every particle sums its forces
+//! in a fixed order, [`forces`]).
 //!
 //! The API follows rapier: all state is explicit and one call advances it,
 //! [`step`]`(&Params, &mut State, &mut impl Sink)`. Contact laws are one
@@ -37,12 +37,11 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 pub use contact::{ContactModel, ContactSpec, Material};
+pub use forces::{best_simd, simd, use_simd, Simd};
 pub use neighbour::NeighbourList;
 pub use particles::Particles;
 pub use sink::Sink;
 pub use walls::{CylinderSide, Wall, WallShape};
-
-use contact::ContactForce;
 
 /// What can go wrong in the solver.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -156,7 +155,7 @@ pub struct State {
     /// Steps taken.
     pub step_count: u64,
     neighbours: NeighbourList,
-    pair_forces: Vec<ContactForce>,
+    blocks: forces::Blocks,
     wall_contacts: forces::WallContacts,
     wall_force_n: Vec<Vector3<f64>>,
     forces_ready: bool,
@@ -170,7 +169,7 @@ impl State {
             time_s: 0.0,
             step_count: 0,
             neighbours: NeighbourList::default(),
-            pair_forces: Vec::new(),
+            blocks: forces::Blocks::default(),
             wall_contacts: forces::WallContacts::default(),
             wall_force_n: Vec::new(),
             forces_ready: false,
@@ -234,8 +233,6 @@ impl State {
             &self.particles.radius_m,
             params.skin_m,
         )?;
-        self.pair_forces
-            .resize(self.neighbours.pair_count(), ContactForce::default());
         Ok(())
     }
 
@@ -244,9 +241,9 @@ impl State {
     fn evaluate_forces(&mut self, params: &Params, sink: &mut impl Sink) {
         forces::pair_forces(
             params,
-            &self.particles,
+            &mut self.particles,
             &mut self.neighbours,
-            &mut self.pair_forces,
+            &mut self.blocks,
         );
         self.wall_contacts.cull(
             &params.walls,
@@ -254,13 +251,7 @@ impl State {
             &self.neighbours,
             params.skin_m,
         );
-        forces::gather(
-            params,
-            &mut self.particles,
-            &self.neighbours,
-            &self.pair_forces,
-            &mut self.wall_contacts,
-        );
+        forces::wall_forces(params, &mut self.particles, &mut self.wall_contacts);
         self.wall_contacts.totals(&mut self.wall_force_n);
         sink.add_external_forces(self.time_s, &mut self.particles);
     }

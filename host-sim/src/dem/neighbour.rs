@@ -1,12 +1,10 @@
 //! Verlet neighbour list built on a cell grid.
 //!
 //! Each pair (i, j) with j > i whose surfaces are closer than the skin is
-//! stored once, in i's block of a flat list (CSR), j ascending. A reverse
-//! index lists, for each j, the pairs where it is the second particle, so
-//! per-particle force sums are gathered in a fixed order (deterministic and
-//! independent of the thread count). The list is rebuilt when a particle
-//! has moved more than half the skin; the contact history of every pair
-//! still listed is carried over (matched by the particle pair).
+//! stored once, in i's run of a flat list (CSR), j ascending, so the pairs
+//! are ordered by first particle, then second. The list is rebuilt when a
+//! particle has moved more than half the skin; the contact history of
+//! every pair still listed is carried over (matched by the particle pair).
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -26,13 +24,11 @@ pub struct NeighbourList {
     pub(crate) pair_i: Vec<u32>,
     /// Second particle of each pair (> first).
     pub(crate) pair_j: Vec<u32>,
-    /// Contact history of each pair.
+    /// Contact history of each pair, meaningful while its `open` flag is 1.
     pub(crate) history: Vec<History>,
-    /// rev_start[j]..rev_start[j+1] index `rev_pair`: pairs whose second
-    /// particle is j, ascending.
-    pub(crate) rev_start: Vec<u32>,
-    /// Pair indices, grouped by second particle.
-    pub(crate) rev_pair: Vec<u32>,
+    /// 1 while the pair's history holds an open contact, else 0 (its
+    /// history then counts as zero).
+    pub(crate) open: Vec<u8>,
     /// Positions at the last build (m).
     pub(crate) reference_m: Vec<Vector3<f64>>,
     /// Skin used at the last build (m).
@@ -66,7 +62,9 @@ impl NeighbourList {
         let old_start = &self.start;
         let old_j = &self.pair_j;
         let old_hist = &self.history;
-        let chunks: Vec<(Vec<u32>, Vec<u32>, Vec<History>)> = (0..n.div_ceil(BUILD_CHUNK))
+        let old_open = &self.open;
+        type Chunk = (Vec<u32>, Vec<u32>, Vec<History>, Vec<u8>);
+        let chunks: Vec<Chunk> = (0..n.div_ceil(BUILD_CHUNK))
             .into_par_iter()
             .map(|c| {
                 let lo = c * BUILD_CHUNK;
@@ -74,6 +72,7 @@ impl NeighbourList {
                 let mut counts = Vec::with_capacity(hi - lo);
                 let mut js = Vec::with_capacity((hi - lo) * 8);
                 let mut hist = Vec::with_capacity((hi - lo) * 8);
+                let mut open = Vec::with_capacity((hi - lo) * 8);
                 for i in lo..hi {
                     let first = js.len();
                     grid.for_each_near(i, position_m, radius_m, skin_m, |j| js.push(j as u32));
@@ -87,17 +86,20 @@ impl NeighbourList {
                             while k < b && old_j[k] < j {
                                 k += 1;
                             }
-                            if k < b && old_j[k] == j {
+                            if k < b && old_j[k] == j && old_open[k] != 0 {
                                 hist.push(old_hist[k]);
+                                open.push(1);
                             } else {
                                 hist.push(History::default());
+                                open.push(0);
                             }
                         }
                     } else {
                         hist.resize(js.len(), History::default());
+                        open.resize(js.len(), 0);
                     }
                 }
-                (counts, js, hist)
+                (counts, js, hist, open)
             })
             .collect();
 
@@ -105,9 +107,10 @@ impl NeighbourList {
         self.pair_i.clear();
         self.pair_j.clear();
         self.history.clear();
+        self.open.clear();
         self.start.push(0);
         let mut i = 0u32;
-        for (counts, js, hist) in chunks {
+        for (counts, js, hist, open) in chunks {
             for c in counts {
                 let s = *self.start.last().unwrap_or(&0);
                 self.start.push(s + c);
@@ -116,24 +119,7 @@ impl NeighbourList {
             }
             self.pair_j.extend_from_slice(&js);
             self.history.extend_from_slice(&hist);
-        }
-
-        // Reverse index by counting sort, pairs ascending within each j.
-        self.rev_start.clear();
-        self.rev_start.resize(n + 1, 0);
-        for &j in &self.pair_j {
-            self.rev_start[j as usize + 1] += 1;
-        }
-        for j in 0..n {
-            self.rev_start[j + 1] += self.rev_start[j];
-        }
-        self.rev_pair.clear();
-        self.rev_pair.resize(self.pair_j.len(), 0);
-        let mut fill: Vec<u32> = self.rev_start[..n].to_vec();
-        for (k, &j) in self.pair_j.iter().enumerate() {
-            let slot = &mut fill[j as usize];
-            self.rev_pair[*slot as usize] = k as u32;
-            *slot += 1;
+            self.open.extend_from_slice(&open);
         }
 
         self.reference_m.clear();
@@ -287,15 +273,6 @@ mod tests {
             .zip(list.pair_j.iter().copied())
             .collect();
         assert_eq!(got, want);
-        // Reverse index covers every pair once.
-        let mut seen = vec![0; got.len()];
-        for j in 0..x.len() {
-            for &k in &list.rev_pair[list.rev_start[j] as usize..list.rev_start[j + 1] as usize] {
-                assert_eq!(list.pair_j[k as usize] as usize, j);
-                seen[k as usize] += 1;
-            }
-        }
-        assert!(seen.iter().all(|&c| c == 1));
     }
 
     #[test]
@@ -309,12 +286,19 @@ mod tests {
         let mut list = NeighbourList::default();
         list.build(&x, &r, 2e-4).unwrap();
         assert_eq!(list.pair_count(), 2);
-        list.history[1] = [7.0, 8.0, 9.0]; // pair (1, 2)
-                                           // Particle 0 moves away: pair (0, 1) drops, (1, 2) keeps its history.
+        list.history[1] = [7.0, 8.0, 9.0]; // pair (1, 2), open
+        list.open[1] = 1;
+        // Particle 0 moves away: pair (0, 1) drops, (1, 2) keeps its history.
         let y = vec![Vector3::new(-1.0e-2, 0.0, 0.0), x[1], x[2]];
         list.build(&y, &r, 2e-4).unwrap();
         assert_eq!(list.pair_count(), 1);
         assert_eq!((list.pair_i[0], list.pair_j[0]), (1, 2));
         assert_eq!(list.history[0], [7.0, 8.0, 9.0]);
+        assert_eq!(list.open[0], 1);
+        // A closed pair's stale history is not carried.
+        list.open[0] = 0;
+        list.build(&x, &r, 2e-4).unwrap();
+        assert_eq!(list.history[1], History::default());
+        assert_eq!(list.open, vec![0, 0]);
     }
 }

@@ -1,13 +1,14 @@
 //! Normal damping laws: a dashpot coefficient γ_n (N·s/m), so that the
 //! normal force is F_n = F_elastic − γ_n v_n.
 
-use super::{ContactGeometry, NormalOutput};
+use super::{ContactGeometry, NormalOutput, Real};
 use crate::dem::DemError;
 
 /// A damping law.
 pub trait DampingLaw {
     /// Dashpot coefficient γ_n (N·s/m) of a contact.
-    fn coefficient_n_s_per_m(&self, g: &ContactGeometry, normal: &NormalOutput) -> f64;
+    fn coefficient_n_s_per_m<T: Real>(&self, g: &ContactGeometry<T>, normal: &NormalOutput<T>)
+        -> T;
 }
 
 /// No damping (elastic contacts).
@@ -15,9 +16,9 @@ pub trait DampingLaw {
 pub struct NoDamping;
 
 impl DampingLaw for NoDamping {
-    #[inline]
-    fn coefficient_n_s_per_m(&self, _g: &ContactGeometry, _n: &NormalOutput) -> f64 {
-        0.0
+    #[inline(always)]
+    fn coefficient_n_s_per_m<T: Real>(&self, _g: &ContactGeometry<T>, _n: &NormalOutput<T>) -> T {
+        T::splat(0.0)
     }
 }
 
@@ -48,11 +49,15 @@ impl ViscoelasticDamping {
 }
 
 impl DampingLaw for ViscoelasticDamping {
-    #[inline]
-    fn coefficient_n_s_per_m(&self, g: &ContactGeometry, normal: &NormalOutput) -> f64 {
+    #[inline(always)]
+    fn coefficient_n_s_per_m<T: Real>(
+        &self,
+        g: &ContactGeometry<T>,
+        normal: &NormalOutput<T>,
+    ) -> T {
         // 2 √(5/6)
         const C: f64 = 1.825_741_858_350_553_8;
-        C * self.factor * (normal.stiffness_n_per_m * g.mass_eff_kg).sqrt()
+        T::splat(C * self.factor) * (normal.stiffness_n_per_m * g.mass_eff_kg).simd_sqrt()
     }
 }
 
@@ -102,8 +107,12 @@ pub enum Damping {
 }
 
 impl DampingLaw for Damping {
-    #[inline]
-    fn coefficient_n_s_per_m(&self, g: &ContactGeometry, normal: &NormalOutput) -> f64 {
+    #[inline(always)]
+    fn coefficient_n_s_per_m<T: Real>(
+        &self,
+        g: &ContactGeometry<T>,
+        normal: &NormalOutput<T>,
+    ) -> T {
         match self {
             Damping::None(l) => l.coefficient_n_s_per_m(g, normal),
             Damping::Viscoelastic(l) => l.coefficient_n_s_per_m(g, normal),

@@ -11,8 +11,16 @@
 //! Each family is an enum over its laws, so the hot loop dispatches with a
 //! `match` (no virtual calls), while every law is its own struct
 //! implementing the family trait.
+//!
+//! Every law is written once, generic over its number type ([`Real`]):
+//! `f64` for one contact, or [`Lanes`] for four contacts at once (SIMD over
+//! contacts, as rapier's solver), which is how the particle pairs are
+//! evaluated. Branches are lane selects, and both instances run the same
+//! IEEE operations in the same order, so a pair gets bit for bit the same
+//! force in either ([`lanes`]).
 
 pub mod damping;
+pub mod lanes;
 pub mod normal;
 pub mod rolling;
 pub mod tangential;
@@ -20,6 +28,7 @@ pub mod tangential;
 use nalgebra::Vector3;
 
 pub use damping::{Damping, DampingLaw, NoDamping, ViscoelasticDamping};
+pub use lanes::{Lanes, Real, LANE_COUNT};
 pub use normal::{Hertz, Normal, NormalLaw, NormalOutput};
 pub use rolling::{ConstantTorque, NoRolling, Rolling, RollingLaw};
 pub use tangential::{Mindlin, NoTangential, Tangential, TangentialLaw};
@@ -33,37 +42,48 @@ pub const HISTORY_LEN: usize = 3;
 /// Per-contact history (see [`HISTORY_LEN`]); zero when a contact opens.
 pub type History = [f64; HISTORY_LEN];
 
-/// The geometry and kinematics of one contact, computed once by the caller
-/// and read by every law. "i" is the particle the forces are for; "j" is
-/// the other particle or the wall.
+/// The geometry and kinematics of one contact (of [`LANE_COUNT`] contacts
+/// for `T = Lanes`), computed once by the caller and read by every law. "i"
+/// is the particle the forces are for; "j" is the other particle or the wall.
 #[derive(Clone, Copy, Debug)]
-pub struct ContactGeometry {
+pub struct ContactGeometry<T = f64> {
     /// Unit normal pointing from j (or the wall) to i.
-    pub normal: Vector3<f64>,
+    pub normal: Vector3<T>,
     /// Overlap δ = R_i + R_j − distance (m); > 0 in contact.
-    pub overlap_m: f64,
+    pub overlap_m: T,
     /// Effective radius R* = R_i R_j / (R_i + R_j) (m); R_i for a wall.
-    pub radius_eff_m: f64,
+    pub radius_eff_m: T,
     /// Effective mass m* = m_i m_j / (m_i + m_j) (kg); m_i for a wall.
-    pub mass_eff_kg: f64,
+    pub mass_eff_kg: T,
     /// Normal relative velocity (v_i − v_j)·n (m/s); negative while approaching.
-    pub normal_velocity_m_s: f64,
+    pub normal_velocity_m_s: T,
     /// Tangential relative velocity of the two contact points (m/s), ⟂ n.
-    pub tangential_velocity_m_s: Vector3<f64>,
+    pub tangential_velocity_m_s: Vector3<T>,
     /// Relative angular velocity ω_i − ω_j (rad/s).
-    pub relative_spin_rad_s: Vector3<f64>,
+    pub relative_spin_rad_s: Vector3<T>,
 }
 
 /// What one contact exerts, from i's point of view.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ContactForce {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactForce<T = f64> {
     /// Force on i (N); j receives the opposite.
-    pub force_n: Vector3<f64>,
+    pub force_n: Vector3<T>,
     /// −n × F_t (N): the torque on i is R_i times this, and on j R_j times
     /// this (same sign: both contact points are dragged the same way).
-    pub torque_per_radius_n: Vector3<f64>,
+    pub torque_per_radius_n: Vector3<T>,
     /// Rolling-resistance torque on i (N·m); j receives the opposite.
-    pub rolling_torque_n_m: Vector3<f64>,
+    pub rolling_torque_n_m: Vector3<T>,
+}
+
+impl<T: Real> Default for ContactForce<T> {
+    fn default() -> Self {
+        let zero = Vector3::repeat(T::splat(0.0));
+        ContactForce {
+            force_n: zero,
+            torque_per_radius_n: zero,
+            rolling_torque_n_m: zero,
+        }
+    }
 }
 
 /// Young's modulus, Poisson's ratio and density of one material.
@@ -179,15 +199,20 @@ impl ContactModel {
         self.tangential.history_len()
     }
 
-    /// Forces of one contact with overlap > 0; updates `history` (the
-    /// tangential spring) over the step `dt_s` (s).
-    #[inline]
-    pub fn evaluate(&self, g: &ContactGeometry, dt_s: f64, history: &mut History) -> ContactForce {
+    /// Forces of one contact with overlap > 0 (or of four, `T = Lanes`);
+    /// updates `history` (the tangential spring) over the step `dt_s` (s).
+    #[inline(always)]
+    pub fn evaluate<T: Real>(
+        &self,
+        g: &ContactGeometry<T>,
+        dt_s: f64,
+        history: &mut [T; HISTORY_LEN],
+    ) -> ContactForce<T> {
         let normal = self.normal.force(g);
         let gamma_n = self.damping.coefficient_n_s_per_m(g, &normal);
         let fn_total = normal.force_n - gamma_n * g.normal_velocity_m_s;
         // Fncrit as LAMMPS' Hertz: |elastic + damping|.
-        let fncrit = fn_total.abs();
+        let fncrit = fn_total.simd_abs();
         let ft = self
             .tangential
             .force(g, &normal, gamma_n, fncrit, dt_s, history);
@@ -198,6 +223,50 @@ impl ContactModel {
             rolling_torque_n_m: rolling,
         }
     }
+}
+
+impl<T: Real> ContactGeometry<T> {
+    /// Two spheres i and j, positions `x` (m), velocities `v` (m/s), spins
+    /// `w` (rad/s), radii `r` (m) and masses `m` (kg), i's first; the
+    /// caller checks that they overlap.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn spheres(
+        x: [&Vector3<T>; 2],
+        v: [&Vector3<T>; 2],
+        w: [&Vector3<T>; 2],
+        r: [T; 2],
+        m: [T; 2],
+    ) -> Self {
+        let dx = x[0] - x[1];
+        let sum = r[0] + r[1];
+        let d = dx.dot(&dx).simd_sqrt();
+        let n = dx / d;
+        let vr = v[0] - v[1];
+        let vn = vr.dot(&n);
+        // Contact-point velocities: v_i − R_i ω_i × n minus v_j + R_j ω_j × n.
+        let spin = w[0] * r[0] + w[1] * r[1];
+        let vt = vr - n * vn - spin.cross(&n);
+        ContactGeometry {
+            normal: n,
+            overlap_m: sum - d,
+            radius_eff_m: r[0] * r[1] / sum,
+            mass_eff_kg: m[0] * m[1] / (m[0] + m[1]),
+            normal_velocity_m_s: vn,
+            tangential_velocity_m_s: vt,
+            relative_spin_rad_s: w[0] - w[1],
+        }
+    }
+}
+
+/// `a` where `cond` holds and `b` elsewhere, per lane.
+#[inline(always)]
+pub(crate) fn select3<T: Real>(cond: T::Mask, a: Vector3<T>, b: Vector3<T>) -> Vector3<T> {
+    Vector3::new(
+        a.x.select(cond, b.x),
+        a.y.select(cond, b.y),
+        a.z.select(cond, b.z),
+    )
 }
 
 #[cfg(test)]
@@ -214,6 +283,96 @@ mod tests {
         // E* = E / (2(1 − ν²)), G* = E / (4(2 − ν)(1 + ν)).
         assert!((m.effective_modulus_pa(&m) - 1.0e7 / (2.0 * 0.91)).abs() < 1e-6);
         assert!((m.effective_shear_modulus_pa(&m) - 1.0e7 / (4.0 * 1.7 * 1.3)).abs() < 1e-6);
+    }
+
+    /// Four contacts through `Lanes` give the bits each gives alone
+    /// through `f64`: sticking and sliding, rolling or not, opening or
+    /// carrying a history.
+    #[test]
+    fn lanes_give_the_bits_of_one_contact_at_a_time() {
+        let sand = Material {
+            youngs_modulus_pa: 1.0e7,
+            poisson_ratio: 0.3,
+            density_kg_m3: 2920.0,
+        };
+        let spec = ContactSpec {
+            rolling_friction: 0.2,
+            ..ContactSpec::default()
+        };
+        let model = ContactModel::hertz_mindlin(&sand, &sand, &spec).unwrap();
+        let mut seed = 7u64;
+        let mut u = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        fn v3(u: &mut impl FnMut() -> f64, s: f64) -> Vector3<f64> {
+            Vector3::new(u() * s, u() * s, u() * s)
+        }
+        let (mut slid, mut stuck) = (0, 0);
+        for _ in 0..200 {
+            let one: [(ContactGeometry, History); LANE_COUNT] = std::array::from_fn(|_| {
+                let normal = v3(&mut u, 1.0).normalize();
+                let g = ContactGeometry {
+                    normal,
+                    overlap_m: (u() + 0.5) * 2e-5,
+                    radius_eff_m: 5e-4 + u() * 1e-4,
+                    mass_eff_kg: 6e-6 + u() * 1e-6,
+                    normal_velocity_m_s: u() * 0.02,
+                    tangential_velocity_m_s: {
+                        let v = v3(&mut u, 0.01);
+                        v - normal * v.dot(&normal)
+                    },
+                    relative_spin_rad_s: {
+                        let spin = if u() > 0.0 { 50.0 } else { 0.0 };
+                        v3(&mut u, spin)
+                    },
+                };
+                (g, [u() * 2e-6, u() * 2e-6, u() * 2e-6])
+            });
+            let lane = |f: &dyn Fn(&ContactGeometry) -> f64| Lanes(one.map(|(g, _)| f(&g)));
+            let lane3 = |f: &dyn Fn(&ContactGeometry) -> Vector3<f64>| {
+                Vector3::new(lane(&|g| f(g).x), lane(&|g| f(g).y), lane(&|g| f(g).z))
+            };
+            let g4 = ContactGeometry {
+                normal: lane3(&|g| g.normal),
+                overlap_m: lane(&|g| g.overlap_m),
+                radius_eff_m: lane(&|g| g.radius_eff_m),
+                mass_eff_kg: lane(&|g| g.mass_eff_kg),
+                normal_velocity_m_s: lane(&|g| g.normal_velocity_m_s),
+                tangential_velocity_m_s: lane3(&|g| g.tangential_velocity_m_s),
+                relative_spin_rad_s: lane3(&|g| g.relative_spin_rad_s),
+            };
+            let mut h4: [Lanes; HISTORY_LEN] =
+                std::array::from_fn(|c| Lanes(one.map(|(_, h)| h[c])));
+            let f4 = model.evaluate(&g4, 1.5e-5, &mut h4);
+            for (l, (g, h)) in one.iter().enumerate() {
+                let mut h = *h;
+                let f = model.evaluate(g, 1.5e-5, &mut h);
+                let bits = |v: Vector3<f64>| v.map(f64::to_bits);
+                let lane_of = |v: Vector3<Lanes>| Vector3::new(v.x.0[l], v.y.0[l], v.z.0[l]);
+                assert_eq!(bits(f.force_n), bits(lane_of(f4.force_n)));
+                assert_eq!(
+                    bits(f.torque_per_radius_n),
+                    bits(lane_of(f4.torque_per_radius_n))
+                );
+                assert_eq!(
+                    bits(f.rolling_torque_n_m),
+                    bits(lane_of(f4.rolling_torque_n_m))
+                );
+                assert_eq!(h.map(f64::to_bits), h4.map(|c| c.0[l].to_bits()));
+                let ft = f.force_n - g.normal * f.force_n.dot(&g.normal);
+                let fncrit = (f.force_n.dot(&g.normal)).abs();
+                if (ft.norm() - 0.25 * fncrit).abs() < 1e-12 * fncrit.max(1e-30) {
+                    slid += 1;
+                } else {
+                    stuck += 1;
+                }
+            }
+        }
+        // Both branches of the Coulomb cap were exercised.
+        assert!(slid > 50 && stuck > 50, "slid {slid}, stuck {stuck}");
     }
 
     #[test]

@@ -1,23 +1,35 @@
 //! Normal elastic laws: the repulsive force as a function of the overlap.
 
-use super::ContactGeometry;
+use super::{ContactGeometry, Real};
 use crate::dem::DemError;
 
 /// What a normal law gives the laws after it.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct NormalOutput {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalOutput<T = f64> {
     /// Elastic normal force (N), ≥ 0 = repulsive.
-    pub force_n: f64,
+    pub force_n: T,
     /// Tangent stiffness S_n = dF/dδ (N/m), used by the damping law.
-    pub stiffness_n_per_m: f64,
+    pub stiffness_n_per_m: T,
     /// Contact radius a (m), used by the tangential law.
-    pub contact_radius_m: f64,
+    pub contact_radius_m: T,
+}
+
+impl<T: Real> NormalOutput<T> {
+    /// No force, no stiffness.
+    pub fn zero() -> Self {
+        let z = T::splat(0.0);
+        NormalOutput {
+            force_n: z,
+            stiffness_n_per_m: z,
+            contact_radius_m: z,
+        }
+    }
 }
 
 /// A normal elastic law.
 pub trait NormalLaw {
     /// The elastic force of a contact with overlap > 0.
-    fn force(&self, g: &ContactGeometry) -> NormalOutput;
+    fn force<T: Real>(&self, g: &ContactGeometry<T>) -> NormalOutput<T>;
 }
 
 /// No normal force (contacts pass through each other).
@@ -25,9 +37,9 @@ pub trait NormalLaw {
 pub struct NoNormal;
 
 impl NormalLaw for NoNormal {
-    #[inline]
-    fn force(&self, _g: &ContactGeometry) -> NormalOutput {
-        NormalOutput::default()
+    #[inline(always)]
+    fn force<T: Real>(&self, _g: &ContactGeometry<T>) -> NormalOutput<T> {
+        NormalOutput::zero()
     }
 }
 
@@ -54,12 +66,12 @@ impl Hertz {
 }
 
 impl NormalLaw for Hertz {
-    #[inline]
-    fn force(&self, g: &ContactGeometry) -> NormalOutput {
-        let a = (g.radius_eff_m * g.overlap_m).sqrt();
+    #[inline(always)]
+    fn force<T: Real>(&self, g: &ContactGeometry<T>) -> NormalOutput<T> {
+        let a = (g.radius_eff_m * g.overlap_m).simd_sqrt();
         NormalOutput {
-            force_n: (4.0 / 3.0) * self.effective_modulus_pa * a * g.overlap_m,
-            stiffness_n_per_m: 2.0 * self.effective_modulus_pa * a,
+            force_n: T::splat((4.0 / 3.0) * self.effective_modulus_pa) * a * g.overlap_m,
+            stiffness_n_per_m: T::splat(2.0 * self.effective_modulus_pa) * a,
             contact_radius_m: a,
         }
     }
@@ -75,8 +87,8 @@ pub enum Normal {
 }
 
 impl NormalLaw for Normal {
-    #[inline]
-    fn force(&self, g: &ContactGeometry) -> NormalOutput {
+    #[inline(always)]
+    fn force<T: Real>(&self, g: &ContactGeometry<T>) -> NormalOutput<T> {
         match self {
             Normal::None(l) => l.force(g),
             Normal::Hertz(l) => l.force(g),

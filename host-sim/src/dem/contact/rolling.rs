@@ -3,13 +3,13 @@
 
 use nalgebra::Vector3;
 
-use super::ContactGeometry;
+use super::{select3, ContactGeometry, Real};
 use crate::dem::DemError;
 
 /// A rolling-resistance law.
 pub trait RollingLaw {
     /// Torque on i (N·m), given the Coulomb limit force `fncrit_n` (N).
-    fn torque(&self, g: &ContactGeometry, fncrit_n: f64) -> Vector3<f64>;
+    fn torque<T: Real>(&self, g: &ContactGeometry<T>, fncrit_n: T) -> Vector3<T>;
 }
 
 /// No rolling resistance.
@@ -17,9 +17,9 @@ pub trait RollingLaw {
 pub struct NoRolling;
 
 impl RollingLaw for NoRolling {
-    #[inline]
-    fn torque(&self, _g: &ContactGeometry, _fncrit_n: f64) -> Vector3<f64> {
-        Vector3::zeros()
+    #[inline(always)]
+    fn torque<T: Real>(&self, _g: &ContactGeometry<T>, _fncrit_n: T) -> Vector3<T> {
+        Vector3::repeat(T::splat(0.0))
     }
 }
 
@@ -49,14 +49,16 @@ impl ConstantTorque {
 }
 
 impl RollingLaw for ConstantTorque {
-    #[inline]
-    fn torque(&self, g: &ContactGeometry, fncrit_n: f64) -> Vector3<f64> {
+    #[inline(always)]
+    fn torque<T: Real>(&self, g: &ContactGeometry<T>, fncrit_n: T) -> Vector3<T> {
         let w = g.relative_spin_rad_s - g.normal * g.relative_spin_rad_s.dot(&g.normal);
-        let s = w.norm();
-        if s <= self.rest_spin_rad_s {
-            return Vector3::zeros();
+        let s = w.dot(&w).simd_sqrt();
+        let rolling = s.simd_gt(T::splat(self.rest_spin_rad_s));
+        if !T::any(rolling) {
+            return Vector3::repeat(T::splat(0.0));
         }
-        w * (-self.rolling_friction * g.radius_eff_m * fncrit_n / s)
+        let torque = w * (T::splat(-self.rolling_friction) * g.radius_eff_m * fncrit_n / s);
+        select3(rolling, torque, Vector3::repeat(T::splat(0.0)))
     }
 }
 
@@ -70,8 +72,8 @@ pub enum Rolling {
 }
 
 impl RollingLaw for Rolling {
-    #[inline]
-    fn torque(&self, g: &ContactGeometry, fncrit_n: f64) -> Vector3<f64> {
+    #[inline(always)]
+    fn torque<T: Real>(&self, g: &ContactGeometry<T>, fncrit_n: T) -> Vector3<T> {
         match self {
             Rolling::None(l) => l.torque(g, fncrit_n),
             Rolling::ConstantTorque(l) => l.torque(g, fncrit_n),

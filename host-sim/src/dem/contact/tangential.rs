@@ -2,7 +2,7 @@
 
 use nalgebra::Vector3;
 
-use super::{ContactGeometry, History, NormalOutput};
+use super::{select3, ContactGeometry, NormalOutput, Real, HISTORY_LEN};
 use crate::dem::DemError;
 
 /// A tangential law.
@@ -13,15 +13,16 @@ pub trait TangentialLaw {
     /// Tangential force on i (N), given the normal output, the normal
     /// dashpot γ_n (N·s/m), the Coulomb limit force `fncrit_n` (N) and the
     /// step `dt_s` (s); updates `history`.
-    fn force(
+    #[allow(clippy::too_many_arguments)]
+    fn force<T: Real>(
         &self,
-        g: &ContactGeometry,
-        normal: &NormalOutput,
-        gamma_n: f64,
-        fncrit_n: f64,
+        g: &ContactGeometry<T>,
+        normal: &NormalOutput<T>,
+        gamma_n: T,
+        fncrit_n: T,
         dt_s: f64,
-        history: &mut History,
-    ) -> Vector3<f64>;
+        history: &mut [T; HISTORY_LEN],
+    ) -> Vector3<T>;
 }
 
 /// Frictionless contacts.
@@ -33,17 +34,17 @@ impl TangentialLaw for NoTangential {
         0
     }
 
-    #[inline]
-    fn force(
+    #[inline(always)]
+    fn force<T: Real>(
         &self,
-        _g: &ContactGeometry,
-        _normal: &NormalOutput,
-        _gamma_n: f64,
-        _fncrit_n: f64,
+        _g: &ContactGeometry<T>,
+        _normal: &NormalOutput<T>,
+        _gamma_n: T,
+        _fncrit_n: T,
         _dt_s: f64,
-        _history: &mut History,
-    ) -> Vector3<f64> {
-        Vector3::zeros()
+        _history: &mut [T; HISTORY_LEN],
+    ) -> Vector3<T> {
+        Vector3::repeat(T::splat(0.0))
     }
 }
 
@@ -94,34 +95,36 @@ impl TangentialLaw for Mindlin {
         3
     }
 
-    #[inline]
-    fn force(
+    #[inline(always)]
+    fn force<T: Real>(
         &self,
-        g: &ContactGeometry,
-        normal: &NormalOutput,
-        gamma_n: f64,
-        fncrit_n: f64,
+        g: &ContactGeometry<T>,
+        normal: &NormalOutput<T>,
+        gamma_n: T,
+        fncrit_n: T,
         dt_s: f64,
-        history: &mut History,
-    ) -> Vector3<f64> {
+        history: &mut [T; HISTORY_LEN],
+    ) -> Vector3<T> {
         let n = &g.normal;
         let vt = &g.tangential_velocity_m_s;
         let mut xi = Vector3::new(history[0], history[1], history[2]);
         // Keep the spring in the tangent plane as the contact rotates.
         xi -= n * xi.dot(n);
-        xi += vt * dt_s;
-        let kt = 8.0 * self.effective_shear_modulus_pa * normal.contact_radius_m;
-        let gamma_t = self.damping_scale * gamma_n;
-        let mut ft = -kt * xi - gamma_t * vt;
-        let limit = self.friction * fncrit_n;
-        let ft2 = ft.norm_squared();
-        if ft2 > limit * limit {
-            ft *= limit / ft2.sqrt();
-            xi = if kt > 0.0 {
-                -(ft + gamma_t * vt) / kt
-            } else {
-                Vector3::zeros()
-            };
+        xi += vt * T::splat(dt_s);
+        let kt = T::splat(8.0 * self.effective_shear_modulus_pa) * normal.contact_radius_m;
+        let gamma_t = T::splat(self.damping_scale) * gamma_n;
+        let mut ft = xi * -kt - vt * gamma_t;
+        let limit = T::splat(self.friction) * fncrit_n;
+        let ft2 = ft.dot(&ft);
+        let slides = ft2.simd_gt(limit * limit);
+        if T::any(slides) {
+            let capped = ft * (limit / ft2.simd_sqrt());
+            // The spring set back to hold the capped force.
+            let zero = Vector3::repeat(T::splat(0.0));
+            let stiff = kt.simd_gt(T::splat(0.0));
+            let held = select3(stiff, -(capped + vt * gamma_t) / kt, zero);
+            xi = select3(slides, held, xi);
+            ft = select3(slides, capped, ft);
         }
         history[0] = xi.x;
         history[1] = xi.y;
@@ -147,16 +150,16 @@ impl TangentialLaw for Tangential {
         }
     }
 
-    #[inline]
-    fn force(
+    #[inline(always)]
+    fn force<T: Real>(
         &self,
-        g: &ContactGeometry,
-        normal: &NormalOutput,
-        gamma_n: f64,
-        fncrit_n: f64,
+        g: &ContactGeometry<T>,
+        normal: &NormalOutput<T>,
+        gamma_n: T,
+        fncrit_n: T,
         dt_s: f64,
-        history: &mut History,
-    ) -> Vector3<f64> {
+        history: &mut [T; HISTORY_LEN],
+    ) -> Vector3<T> {
         match self {
             Tangential::None(l) => l.force(g, normal, gamma_n, fncrit_n, dt_s, history),
             Tangential::Mindlin(l) => l.force(g, normal, gamma_n, fncrit_n, dt_s, history),
