@@ -73,7 +73,24 @@ struct PairRun<'a> {
     open: &'a mut [u8],
 }
 
-impl PairRun<'_> {
+impl<'a> PairRun<'a> {
+    /// The pairs `ks` of the list `pi`, `pj`, with their `history` and
+    /// `open` flags (already cut to `ks`).
+    fn of(
+        pi: &'a [u32],
+        pj: &'a [u32],
+        ks: std::ops::Range<usize>,
+        history: &'a mut [History],
+        open: &'a mut [u8],
+    ) -> Self {
+        PairRun {
+            pi: &pi[ks.clone()],
+            pj: &pj[ks],
+            history,
+            open,
+        }
+    }
+
     /// Positions in `slots` of the overlapping pairs into `touching`,
     /// returning how many; pairs apart are marked closed. No branch on the
     /// outcome: which pairs touch is a coin toss to the branch predictor.
@@ -508,12 +525,7 @@ pub(crate) fn pair_forces(
         .enumerate()
         .for_each(|(b, (history, open, out))| {
             let ks = pairs_of(b);
-            let mut run = PairRun {
-                pi: &pi[ks.clone()],
-                pj: &pj[ks.clone()],
-                history,
-                open,
-            };
+            let mut run = PairRun::of(pi, pj, ks.clone(), history, open);
             let mine = &cross[cross_of(b)];
             dispatch!(
                 simd,
@@ -535,12 +547,7 @@ pub(crate) fn pair_forces(
         .enumerate()
         .for_each(|(b, (history, open, f, t))| {
             let ks = pairs_of(b);
-            let mut run = PairRun {
-                pi: &pi[ks.clone()],
-                pj: &pj[ks.clone()],
-                history,
-                open,
-            };
+            let mut run = PairRun::of(pi, pj, ks.clone(), history, open);
             let into = &incoming[incoming_start[b]..incoming_start[b + 1]];
             let range = (first[b], first[b + 1]);
             let cursor = cross_of(b).start;
