@@ -127,8 +127,8 @@ impl<'a> PairRun<'a> {
         mut put: impl FnMut(ContactForce),
     ) {
         let zero = Lanes::splat(0.0);
+        let last = which.len().saturating_sub(1);
         for first in (0..which.len()).step_by(LANE_COUNT) {
-            let last = which.len() - 1;
             let batch: [usize; LANE_COUNT] =
                 std::array::from_fn(|l| slots[which[(first + l).min(last)] as usize] as usize);
             let i = batch.map(|s| self.pi[s] as usize);
@@ -179,7 +179,8 @@ pub(crate) struct Blocks {
 
 impl Blocks {
     /// Splits the particles of `list` into `count` blocks of about equal
-    /// pair counts, unless already split so for this build.
+    /// work (listed pairs, touching ones weighted by [`TOUCHING_WEIGHT`]),
+    /// unless already split so for this build.
     fn split(&mut self, list: &NeighbourList, count: usize) {
         let n = list.start.len().saturating_sub(1);
         let count = count.clamp(1, n.max(1));
@@ -402,6 +403,10 @@ impl PairRun<'_> {
         t: &mut [Vector3<f64>],
     ) {
         let p = x.p;
+        if f.is_empty() {
+            // No particles, so no pairs and nothing incoming.
+            return;
+        }
         for (k, (f, t)) in f.iter_mut().zip(t.iter_mut()).enumerate() {
             *f = x.body_accel * p.mass_kg[lo + k];
             *t = Vector3::zeros();
@@ -416,9 +421,6 @@ impl PairRun<'_> {
         let mut inside = [0u32; PAIR_CHUNK];
         let mut results = Vec::with_capacity(PAIR_CHUNK);
         let len = self.pi.len();
-        if f.is_empty() {
-            return;
-        }
         // The particle whose sums are held in (fi, ti), radius ri.
         let (mut held, mut fi, mut ti, mut ri) = (lo, f[0], t[0], p.radius_m[lo]);
         for s0 in (0..len).step_by(PAIR_CHUNK) {
