@@ -35,6 +35,27 @@ pub struct NeighbourList {
     pub(crate) skin_m: f64,
     /// Number of builds so far.
     pub builds: u64,
+    /// The arrays of the build before last, reused by the next one (fresh
+    /// allocations of this size would cost a page fault per 4 KiB).
+    spare: Spare,
+}
+
+/// Buffers of a previous build, kept for their capacity.
+#[derive(Clone, Debug, Default)]
+struct Spare {
+    start: Vec<u32>,
+    pair_i: Vec<u32>,
+    pair_j: Vec<u32>,
+    history: Vec<History>,
+    open: Vec<u8>,
+}
+
+/// `v` emptied and refilled with `len` copies of `value`, in its own
+/// allocation.
+fn refill<T: Clone>(mut v: Vec<T>, len: usize, value: T) -> Vec<T> {
+    v.clear();
+    v.resize(len, value);
+    v
 }
 
 impl NeighbourList {
@@ -50,6 +71,12 @@ impl NeighbourList {
 
     /// Rebuilds the list for `position_m`/`radius_m` with `skin_m` (m),
     /// carrying over the history of pairs that stay listed.
+    ///
+    /// Two parallel passes over chunks of particles: the first finds each
+    /// particle's partners (scanning the grid's cell-sorted copy of the
+    /// positions, without branches on the distance test), the second writes
+    /// the chunks into the flat arrays at their offsets and carries the
+    /// history over. The list is the same whatever the chunking.
     pub fn build(
         &mut self,
         position_m: &[Vector3<f64>],
@@ -58,69 +85,93 @@ impl NeighbourList {
     ) -> Result<(), DemError> {
         let n = position_m.len();
         let grid = Grid::new(position_m, radius_m, skin_m)?;
-        let old_valid = self.start.len() == n + 1;
-        let old_start = &self.start;
-        let old_j = &self.pair_j;
-        let old_hist = &self.history;
-        let old_open = &self.open;
-        type Chunk = (Vec<u32>, Vec<u32>, Vec<History>, Vec<u8>);
-        let chunks: Vec<Chunk> = (0..n.div_ceil(BUILD_CHUNK))
+        let chunk_count = n.div_ceil(BUILD_CHUNK);
+        let chunk_range = |c: usize| c * BUILD_CHUNK..((c + 1) * BUILD_CHUNK).min(n);
+
+        // Pass 1: each chunk's partners, j ascending within each particle.
+        let found: Vec<(Vec<u32>, Vec<u32>)> = (0..chunk_count)
             .into_par_iter()
             .map(|c| {
-                let lo = c * BUILD_CHUNK;
-                let hi = (lo + BUILD_CHUNK).min(n);
-                let mut counts = Vec::with_capacity(hi - lo);
-                let mut js = Vec::with_capacity((hi - lo) * 8);
-                let mut hist = Vec::with_capacity((hi - lo) * 8);
-                let mut open = Vec::with_capacity((hi - lo) * 8);
-                for i in lo..hi {
+                let range = chunk_range(c);
+                let mut counts = Vec::with_capacity(range.len());
+                let mut js = Vec::with_capacity(range.len() * 8);
+                for i in range {
                     let first = js.len();
-                    grid.for_each_near(i, position_m, radius_m, skin_m, |j| js.push(j as u32));
+                    grid.near_into(i, position_m[i], radius_m[i], skin_m, &mut js);
                     js[first..].sort_unstable();
                     counts.push((js.len() - first) as u32);
-                    // Carry history: both lists are sorted by j.
-                    if old_valid {
-                        let (a, b) = (old_start[i] as usize, old_start[i + 1] as usize);
-                        let mut k = a;
-                        for &j in &js[first..] {
-                            while k < b && old_j[k] < j {
-                                k += 1;
-                            }
-                            if k < b && old_j[k] == j && old_open[k] != 0 {
-                                hist.push(old_hist[k]);
-                                open.push(1);
-                            } else {
-                                hist.push(History::default());
-                                open.push(0);
-                            }
-                        }
-                    } else {
-                        hist.resize(js.len(), History::default());
-                        open.resize(js.len(), 0);
-                    }
                 }
-                (counts, js, hist, open)
+                (counts, js)
             })
             .collect();
 
-        self.start.clear();
-        self.pair_i.clear();
-        self.pair_j.clear();
-        self.history.clear();
-        self.open.clear();
-        self.start.push(0);
-        let mut i = 0u32;
-        for (counts, js, hist, open) in chunks {
-            for c in counts {
-                let s = *self.start.last().unwrap_or(&0);
-                self.start.push(s + c);
-                self.pair_i.extend(std::iter::repeat_n(i, c as usize));
-                i += 1;
-            }
-            self.pair_j.extend_from_slice(&js);
-            self.history.extend_from_slice(&hist);
-            self.open.extend_from_slice(&open);
+        // Pass 2: into the flat arrays, the old ones kept for the carry.
+        let old_start = std::mem::take(&mut self.start);
+        let old_j = std::mem::take(&mut self.pair_j);
+        let old_hist = std::mem::take(&mut self.history);
+        let old_open = std::mem::take(&mut self.open);
+        let old_valid = old_start.len() == n + 1;
+        let mut offset = Vec::with_capacity(chunk_count + 1);
+        offset.push(0usize);
+        for (_, js) in &found {
+            offset.push(offset[offset.len() - 1] + js.len());
         }
+        let total = offset[chunk_count];
+        let spare = std::mem::take(&mut self.spare);
+        let mut start = refill(spare.start, n + 1, 0);
+        let mut pair_i = refill(spare.pair_i, total, 0);
+        let mut pair_j = refill(spare.pair_j, total, 0);
+        let mut history = refill(spare.history, total, History::default());
+        let mut open = refill(spare.open, total, 0);
+        let pair_lens: Vec<usize> = found.iter().map(|(_, js)| js.len()).collect();
+        let particle_lens: Vec<usize> = (0..chunk_count).map(|c| chunk_range(c).len()).collect();
+        (
+            found.par_iter(),
+            split_mut(&mut start[1..], &particle_lens),
+            split_mut(&mut pair_i, &pair_lens),
+            split_mut(&mut pair_j, &pair_lens),
+            split_mut(&mut history, &pair_lens),
+            split_mut(&mut open, &pair_lens),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(c, ((counts, js), st, pi, pj, hist, op))| {
+                pj.copy_from_slice(js);
+                let mut k = 0usize;
+                for (q, (&count, end)) in counts.iter().zip(st.iter_mut()).enumerate() {
+                    let i = c * BUILD_CHUNK + q;
+                    let run = k..k + count as usize;
+                    k = run.end;
+                    *end = (offset[c] + k) as u32;
+                    pi[run.clone()].fill(i as u32);
+                    if !old_valid {
+                        continue;
+                    }
+                    // Carry history: both runs are sorted by j.
+                    let (mut o, b) = (old_start[i] as usize, old_start[i + 1] as usize);
+                    for p in run {
+                        let j = pj[p];
+                        while o < b && old_j[o] < j {
+                            o += 1;
+                        }
+                        if o < b && old_j[o] == j && old_open[o] != 0 {
+                            hist[p] = old_hist[o];
+                            op[p] = 1;
+                        }
+                    }
+                }
+            });
+        self.spare = Spare {
+            start: old_start,
+            pair_i: std::mem::replace(&mut self.pair_i, pair_i),
+            pair_j: old_j,
+            history: old_hist,
+            open: old_open,
+        };
+        self.start = start;
+        self.pair_j = pair_j;
+        self.history = history;
+        self.open = open;
 
         self.reference_m.clear();
         self.reference_m.extend_from_slice(position_m);
@@ -130,14 +181,30 @@ impl NeighbourList {
     }
 }
 
+/// `data` cut into consecutive pieces of `lens` (which must not sum past
+/// its length).
+fn split_mut<'a, T>(mut data: &'a mut [T], lens: &[usize]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(lens.len());
+    for &len in lens {
+        let (head, tail) = std::mem::take(&mut data).split_at_mut(len);
+        out.push(head);
+        data = tail;
+    }
+    out
+}
+
 /// A uniform cell grid over the particles' bounding box, cells at least
-/// one interaction range wide, particles sorted by cell.
+/// one interaction range wide, with the particles' positions and radii
+/// copied in cell order (a row of cells is one contiguous run to scan).
 struct Grid {
     origin: Vector3<f64>,
     inv_cell: f64,
     dims: [usize; 3],
     cell_start: Vec<u32>,
+    /// Particle index of each cell-sorted slot.
     cell_particles: Vec<u32>,
+    /// (x, y, z, radius) of each cell-sorted slot (m).
+    cell_sphere_m: Vec<[f64; 4]>,
 }
 
 impl Grid {
@@ -190,48 +257,54 @@ impl Grid {
             cell_particles[fill[c] as usize] = p as u32;
             fill[c] += 1;
         }
+        let cell_sphere_m = cell_particles
+            .iter()
+            .map(|&p| {
+                let (x, r) = (position_m[p as usize], radius_m[p as usize]);
+                [x.x, x.y, x.z, r]
+            })
+            .collect();
         Ok(Grid {
             origin: lo,
             inv_cell,
             dims,
             cell_start,
             cell_particles,
+            cell_sphere_m,
         })
     }
 
-    /// Calls `f(j)` for each j > i whose surface is within `skin_m` of i's.
+    /// Appends to `out` each j > i whose surface is within `skin_m` of
+    /// particle i's (at `x`, radius `r_m`), in cell order.
     #[inline]
-    fn for_each_near(
-        &self,
-        i: usize,
-        position_m: &[Vector3<f64>],
-        radius_m: &[f64],
-        skin_m: f64,
-        mut f: impl FnMut(usize),
-    ) {
-        let x = position_m[i];
+    fn near_into(&self, i: usize, x: Vector3<f64>, r_m: f64, skin_m: f64, out: &mut Vec<u32>) {
         let c = [0, 1, 2]
             .map(|a| (((x[a] - self.origin[a]) * self.inv_cell) as usize).min(self.dims[a] - 1));
         let range = |a: usize| c[a].saturating_sub(1)..=(c[a] + 1).min(self.dims[a] - 1);
+        let i = i as u32;
         for cz in range(2) {
             for cy in range(1) {
                 let row = (cz * self.dims[1] + cy) * self.dims[0];
                 let xs = range(0);
+                // Cells of a row are contiguous in the sorted order.
                 let (a, b) = (
                     self.cell_start[row + xs.start()] as usize,
                     self.cell_start[row + xs.end() + 1] as usize,
                 );
-                // Cells of a row are contiguous in the sorted order.
-                for &p in &self.cell_particles[a..b] {
-                    let j = p as usize;
-                    if j <= i {
-                        continue;
-                    }
-                    let cut = radius_m[i] + radius_m[j] + skin_m;
-                    if (position_m[j] - x).norm_squared() < cut * cut {
-                        f(j);
-                    }
+                // Every candidate is written, the count advances only for
+                // the kept ones: no branch on the (unpredictable) test.
+                let mut m = out.len();
+                out.resize(m + (b - a), 0);
+                for (&j, s) in self.cell_particles[a..b]
+                    .iter()
+                    .zip(&self.cell_sphere_m[a..b])
+                {
+                    let d = Vector3::new(s[0], s[1], s[2]) - x;
+                    let cut = r_m + s[3] + skin_m;
+                    out[m] = j;
+                    m += usize::from((j > i) & (d.norm_squared() < cut * cut));
                 }
+                out.truncate(m);
             }
         }
     }
@@ -243,17 +316,17 @@ mod tests {
 
     #[test]
     fn finds_the_same_pairs_as_brute_force() {
-        // A small irregular cloud.
+        // An irregular cloud of three build chunks, the last one partial.
         let mut x = Vec::new();
         let mut s = 1u64;
-        for _ in 0..300 {
+        for _ in 0..2 * BUILD_CHUNK + 300 {
             let mut r = || {
                 s = s
                     .wrapping_mul(6364136223846793005)
                     .wrapping_add(1442695040888963407);
                 (s >> 11) as f64 / (1u64 << 53) as f64
             };
-            x.push(Vector3::new(r(), r(), r()) * 0.02);
+            x.push(Vector3::new(r(), r(), r()) * 0.03);
         }
         let r = vec![1e-3; x.len()];
         let mut list = NeighbourList::default();
@@ -273,6 +346,23 @@ mod tests {
             .zip(list.pair_j.iter().copied())
             .collect();
         assert_eq!(got, want);
+        for c in 0..3 {
+            let (a, b) = (c * BUILD_CHUNK, ((c + 1) * BUILD_CHUNK).min(x.len()));
+            assert!(list.start[b] > list.start[a] + 20, "chunk {c} has pairs");
+        }
+        for i in 0..x.len() {
+            let run = list.start[i] as usize..list.start[i + 1] as usize;
+            assert!(list.pair_i[run].iter().all(|&p| p as usize == i));
+        }
+        // Open contacts keep their history through a rebuild in every chunk.
+        for (k, h) in list.history.iter_mut().enumerate() {
+            *h = [k as f64, 1.0, 2.0];
+        }
+        list.open.fill(1);
+        let before = list.history.clone();
+        list.build(&x, &r, 2e-4).unwrap();
+        assert_eq!(list.history, before);
+        assert!(list.open.iter().all(|&o| o == 1));
     }
 
     #[test]
