@@ -30,37 +30,77 @@ const BLOCKS_PER_WORKER: usize = 2;
 /// ≈ 45 ns against ≈ 5 ns).
 const TOUCHING_WEIGHT: u64 = 9;
 
+/// One particle's state as the pair pass reads it, packed so that a
+/// particle is three aligned 32-byte loads instead of five arrays.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub(crate) struct Packed {
+    /// Position (m) and radius (m).
+    xr: [f64; 4],
+    /// Velocity (m/s) and mass (kg).
+    vm: [f64; 4],
+    /// Angular velocity (rad/s), then padding.
+    w: [f64; 4],
+}
+
+/// `p`'s state packed for the pair pass into `out`.
+fn pack(p: &Particles, out: &mut Vec<Packed>) {
+    out.resize(p.len(), Packed::default());
+    out.par_chunks_mut(GATHER_CHUNK)
+        .enumerate()
+        .for_each(|(c, out)| {
+            for (k, o) in out.iter_mut().enumerate() {
+                let i = c * GATHER_CHUNK + k;
+                let (x, v, w) = (
+                    p.position_m[i],
+                    p.velocity_m_s[i],
+                    p.angular_velocity_rad_s[i],
+                );
+                *o = Packed {
+                    xr: [x.x, x.y, x.z, p.radius_m[i]],
+                    vm: [v.x, v.y, v.z, p.mass_kg[i]],
+                    w: [w.x, w.y, w.z, 0.0],
+                };
+            }
+        });
+}
+
 /// Whether the spheres i and j overlap.
 #[inline(always)]
-fn overlapping(p: &Particles, i: usize, j: usize) -> bool {
-    let sum = p.radius_m[i] + p.radius_m[j];
-    (p.position_m[i] - p.position_m[j]).norm_squared() < sum * sum
+fn overlapping(p: &[Packed], i: usize, j: usize) -> bool {
+    let (a, b) = (&p[i].xr, &p[j].xr);
+    let sum = a[3] + b[3];
+    let d = Vector3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    d.norm_squared() < sum * sum
 }
 
 /// Geometry of the overlapping pairs (i[l], j[l]), one per lane.
 #[inline(always)]
 fn pair_geometry_lanes(
-    p: &Particles,
+    p: &[Packed],
     i: &[usize; LANE_COUNT],
     j: &[usize; LANE_COUNT],
 ) -> ContactGeometry<Lanes> {
-    let vec = |a: &[Vector3<f64>], k: &[usize; LANE_COUNT]| {
+    let (pi, pj) = (i.map(|k| &p[k]), j.map(|k| &p[k]));
+    let vec = |q: &[&Packed; LANE_COUNT], f: fn(&Packed) -> &[f64; 4]| {
         Vector3::new(
-            Lanes(k.map(|k| a[k].x)),
-            Lanes(k.map(|k| a[k].y)),
-            Lanes(k.map(|k| a[k].z)),
+            Lanes(q.map(|q| f(q)[0])),
+            Lanes(q.map(|q| f(q)[1])),
+            Lanes(q.map(|q| f(q)[2])),
         )
     };
-    let sca = |a: &[f64], k: &[usize; LANE_COUNT]| Lanes(k.map(|k| a[k]));
+    let last = |q: &[&Packed; LANE_COUNT], f: fn(&Packed) -> &[f64; 4]| Lanes(q.map(|q| f(q)[3]));
+    let (xr, vm, w): (
+        fn(&Packed) -> &[f64; 4],
+        fn(&Packed) -> &[f64; 4],
+        fn(&Packed) -> &[f64; 4],
+    ) = (|q| &q.xr, |q| &q.vm, |q| &q.w);
     ContactGeometry::spheres(
-        [&vec(&p.position_m, i), &vec(&p.position_m, j)],
-        [&vec(&p.velocity_m_s, i), &vec(&p.velocity_m_s, j)],
-        [
-            &vec(&p.angular_velocity_rad_s, i),
-            &vec(&p.angular_velocity_rad_s, j),
-        ],
-        [sca(&p.radius_m, i), sca(&p.radius_m, j)],
-        [sca(&p.mass_kg, i), sca(&p.mass_kg, j)],
+        [&vec(&pi, xr), &vec(&pj, xr)],
+        [&vec(&pi, vm), &vec(&pj, vm)],
+        [&vec(&pi, w), &vec(&pj, w)],
+        [last(&pi, xr), last(&pj, xr)],
+        [last(&pi, vm), last(&pj, vm)],
     )
 }
 
@@ -95,12 +135,7 @@ impl<'a> PairRun<'a> {
     /// returning how many; pairs apart are marked closed. No branch on the
     /// outcome: which pairs touch is a coin toss to the branch predictor.
     #[inline(always)]
-    fn sort_out(
-        &mut self,
-        p: &Particles,
-        slots: &[u32],
-        touching: &mut [u32; PAIR_CHUNK],
-    ) -> usize {
+    fn sort_out(&mut self, p: &[Packed], slots: &[u32], touching: &mut [u32; PAIR_CHUNK]) -> usize {
         let mut count = 0;
         for (n, &s) in slots.iter().enumerate() {
             let s = s as usize;
@@ -119,7 +154,7 @@ impl<'a> PairRun<'a> {
     #[inline(always)]
     fn evaluate(
         &mut self,
-        p: &Particles,
+        p: &[Packed],
         model: &ContactModel,
         dt_s: f64,
         slots: &[u32],
@@ -175,6 +210,8 @@ pub(crate) struct Blocks {
     /// `cross` of the pairs whose second particle lies in block b, ascending.
     incoming_start: Vec<usize>,
     incoming: Vec<u32>,
+    /// The particles' state packed for this step's pass.
+    packed: Vec<Packed>,
 }
 
 impl Blocks {
@@ -332,6 +369,7 @@ pub fn use_simd(level: Simd) -> Simd {
 /// What every block's task reads.
 struct Inputs<'a> {
     p: &'a Particles,
+    packed: &'a [Packed],
     model: &'a ContactModel,
     dt_s: f64,
     body_accel: Vector3<f64>,
@@ -369,11 +407,11 @@ impl PairRun<'_> {
                 *s = k - k0 as u32;
             }
             let slots = &slots[..chunk.len()];
-            let count = self.sort_out(x.p, slots, &mut touching);
+            let count = self.sort_out(x.packed, slots, &mut touching);
             out.fill(ContactForce::default());
             let which = &touching[..count];
             let mut w = 0;
-            self.evaluate(x.p, x.model, x.dt_s, slots, which, |cf| {
+            self.evaluate(x.packed, x.model, x.dt_s, slots, which, |cf| {
                 out[which[w] as usize] = cf;
                 w += 1;
             });
@@ -429,7 +467,7 @@ impl PairRun<'_> {
                 *s = (s0 + n) as u32;
             }
             let slots = &slots[..m];
-            let count = self.sort_out(p, slots, &mut touching);
+            let count = self.sort_out(x.packed, slots, &mut touching);
             let mut n_inside = 0;
             for &w in &touching[..count] {
                 inside[n_inside] = w;
@@ -437,7 +475,9 @@ impl PairRun<'_> {
             }
             results.clear();
             let which = &inside[..n_inside];
-            self.evaluate(p, x.model, x.dt_s, slots, which, |cf| results.push(cf));
+            self.evaluate(x.packed, x.model, x.dt_s, slots, which, |cf| {
+                results.push(cf)
+            });
             let mut next = results.iter();
             for &w in &touching[..count] {
                 let s = slots[w as usize] as usize;
@@ -494,6 +534,7 @@ pub(crate) fn pair_forces(
 ) {
     let simd = simd();
     blocks.split(list, rayon::current_num_threads() * BLOCKS_PER_WORKER);
+    pack(p, &mut blocks.packed);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
     let nb = blocks.count();
@@ -510,6 +551,7 @@ pub(crate) fn pair_forces(
     let (pi, pj) = (&list.pair_i[..], &list.pair_j[..]);
     let mut x = Inputs {
         p,
+        packed: &blocks.packed,
         model: &params.pair_model,
         dt_s: params.dt_s,
         body_accel: params.gravity_m_s2 * params.buoyancy_factor(),
