@@ -31,17 +31,19 @@ const BLOCKS_PER_WORKER: usize = 2;
 const TOUCHING_WEIGHT: u64 = 9;
 
 /// One particle's state as the pair pass reads it, packed so that a
-/// particle is three aligned 32-byte loads instead of five arrays.
+/// particle is three aligned 32-byte loads instead of five arrays: rows
+/// [`XR`] (position (m), radius (m)), [`VM`] (velocity (m/s), mass (kg))
+/// and [`W`] (angular velocity (rad/s), padding).
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(32))]
-pub(crate) struct Packed {
-    /// Position (m) and radius (m).
-    xr: [f64; 4],
-    /// Velocity (m/s) and mass (kg).
-    vm: [f64; 4],
-    /// Angular velocity (rad/s), then padding.
-    w: [f64; 4],
-}
+pub(crate) struct Packed([[f64; 4]; 3]);
+
+/// Row of [`Packed`]: position and radius.
+const XR: usize = 0;
+/// Row of [`Packed`]: velocity and mass.
+const VM: usize = 1;
+/// Row of [`Packed`]: angular velocity.
+const W: usize = 2;
 
 /// `p`'s state packed for the pair pass into `out`.
 fn pack(p: &Particles, out: &mut Vec<Packed>) {
@@ -56,11 +58,11 @@ fn pack(p: &Particles, out: &mut Vec<Packed>) {
                     p.velocity_m_s[i],
                     p.angular_velocity_rad_s[i],
                 );
-                *o = Packed {
-                    xr: [x.x, x.y, x.z, p.radius_m[i]],
-                    vm: [v.x, v.y, v.z, p.mass_kg[i]],
-                    w: [w.x, w.y, w.z, 0.0],
-                };
+                *o = Packed([
+                    [x.x, x.y, x.z, p.radius_m[i]],
+                    [v.x, v.y, v.z, p.mass_kg[i]],
+                    [w.x, w.y, w.z, 0.0],
+                ]);
             }
         });
 }
@@ -68,7 +70,7 @@ fn pack(p: &Particles, out: &mut Vec<Packed>) {
 /// Whether the spheres i and j overlap.
 #[inline(always)]
 fn overlapping(p: &[Packed], i: usize, j: usize) -> bool {
-    let (a, b) = (&p[i].xr, &p[j].xr);
+    let (a, b) = (&p[i].0[XR], &p[j].0[XR]);
     let sum = a[3] + b[3];
     let d = Vector3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
     d.norm_squared() < sum * sum
@@ -81,26 +83,21 @@ fn pair_geometry_lanes(
     i: &[usize; LANE_COUNT],
     j: &[usize; LANE_COUNT],
 ) -> ContactGeometry<Lanes> {
-    let (pi, pj) = (i.map(|k| &p[k]), j.map(|k| &p[k]));
-    let vec = |q: &[&Packed; LANE_COUNT], f: fn(&Packed) -> &[f64; 4]| {
+    let (pi, pj) = (i.map(|k| &p[k].0), j.map(|k| &p[k].0));
+    let vec = |q: &[&[[f64; 4]; 3]; LANE_COUNT], row: usize| {
         Vector3::new(
-            Lanes(q.map(|q| f(q)[0])),
-            Lanes(q.map(|q| f(q)[1])),
-            Lanes(q.map(|q| f(q)[2])),
+            Lanes(q.map(|q| q[row][0])),
+            Lanes(q.map(|q| q[row][1])),
+            Lanes(q.map(|q| q[row][2])),
         )
     };
-    let last = |q: &[&Packed; LANE_COUNT], f: fn(&Packed) -> &[f64; 4]| Lanes(q.map(|q| f(q)[3]));
-    let (xr, vm, w): (
-        fn(&Packed) -> &[f64; 4],
-        fn(&Packed) -> &[f64; 4],
-        fn(&Packed) -> &[f64; 4],
-    ) = (|q| &q.xr, |q| &q.vm, |q| &q.w);
+    let fourth = |q: &[&[[f64; 4]; 3]; LANE_COUNT], row: usize| Lanes(q.map(|q| q[row][3]));
     ContactGeometry::spheres(
-        [&vec(&pi, xr), &vec(&pj, xr)],
-        [&vec(&pi, vm), &vec(&pj, vm)],
-        [&vec(&pi, w), &vec(&pj, w)],
-        [last(&pi, xr), last(&pj, xr)],
-        [last(&pi, vm), last(&pj, vm)],
+        [&vec(&pi, XR), &vec(&pj, XR)],
+        [&vec(&pi, VM), &vec(&pj, VM)],
+        [&vec(&pi, W), &vec(&pj, W)],
+        [fourth(&pi, XR), fourth(&pj, XR)],
+        [fourth(&pi, VM), fourth(&pj, VM)],
     )
 }
 
