@@ -92,23 +92,18 @@ impl FrontFace {
                 self.history[i] = History::default();
                 continue;
             }
-            let nrm = self.normal;
-            let vr = particles.velocity_m_s[i] - self.velocity_m_s;
-            let vn = vr.dot(&nrm);
-            let spin = particles.angular_velocity_rad_s[i];
-            let g = ContactGeometry {
-                normal: nrm,
-                overlap_m: overlap,
-                radius_eff_m: r,
-                mass_eff_kg: particles.mass_kg[i],
-                normal_velocity_m_s: vn,
-                tangential_velocity_m_s: vr - nrm * vn - (spin * r).cross(&nrm),
-                relative_spin_rad_s: spin,
-            };
+            let g = ContactGeometry::sphere_on_surface(
+                self.normal,
+                overlap,
+                r,
+                particles.mass_kg[i],
+                particles.velocity_m_s[i] - self.velocity_m_s,
+                particles.angular_velocity_rad_s[i],
+            );
             let cf = self.model.evaluate(&g, self.dt_s, &mut self.history[i]);
             particles.force_n[i] += cf.force_n;
             particles.torque_n_m[i] += cf.torque_per_radius_n * r + cf.rolling_torque_n_m;
-            self.normal_force_n += cf.force_n.dot(&nrm);
+            self.normal_force_n += cf.force_n.dot(&self.normal);
             self.contacts += 1;
         }
     }

@@ -326,18 +326,14 @@ fn contact<S: StrainEnergy>(
         .map(|(a, wa)| skin.mass_kg[*a] * wa)
         .sum();
     let m_i = particles.mass_kg[i];
-    let vr = particles.velocity_m_s[i] - v_skin;
-    let vn = vr.dot(&normal);
-    let spin = particles.angular_velocity_rad_s[i];
-    let g = ContactGeometry {
+    let g = ContactGeometry::sphere_on_surface(
         normal,
-        overlap_m: r + half_thickness[k] - gap,
-        radius_eff_m: r,
-        mass_eff_kg: m_i * m_skin / (m_i + m_skin),
-        normal_velocity_m_s: vn,
-        tangential_velocity_m_s: vr - normal * vn - (spin * r).cross(&normal),
-        relative_spin_rad_s: spin,
-    };
+        r + half_thickness[k] - gap,
+        r,
+        m_i * m_skin / (m_i + m_skin),
+        particles.velocity_m_s[i] - v_skin,
+        particles.angular_velocity_rad_s[i],
+    );
     Some(Hit {
         element: k,
         weights: w,

@@ -606,18 +606,14 @@ pub(crate) fn pair_forces(
 fn wall_geometry(p: &Particles, i: usize, wall: &Wall) -> Option<ContactGeometry> {
     let r = p.radius_m[i];
     let (n, overlap) = wall.touch(&p.position_m[i], r)?;
-    let vr = p.velocity_m_s[i] - wall.velocity_m_s;
-    let vn = vr.dot(&n);
-    let vt = vr - n * vn - (p.angular_velocity_rad_s[i] * r).cross(&n);
-    Some(ContactGeometry {
-        normal: n,
-        overlap_m: overlap,
-        radius_eff_m: r,
-        mass_eff_kg: p.mass_kg[i],
-        normal_velocity_m_s: vn,
-        tangential_velocity_m_s: vt,
-        relative_spin_rad_s: p.angular_velocity_rad_s[i],
-    })
+    Some(ContactGeometry::sphere_on_surface(
+        n,
+        overlap,
+        r,
+        p.mass_kg[i],
+        p.velocity_m_s[i] - wall.velocity_m_s,
+        p.angular_velocity_rad_s[i],
+    ))
 }
 
 /// Adds, per particle, its wall contacts to `p.force_n`/`p.torque_n_m`,

@@ -259,6 +259,37 @@ impl<T: Real> ContactGeometry<T> {
     }
 }
 
+impl ContactGeometry {
+    /// A sphere of radius `radius_m` (m), spin `spin_rad_s` (rad/s) and
+    /// (effective) mass `mass_eff_kg` (kg) pressed `overlap_m` (m) into a
+    /// surface (a wall, the skin, the head's face) whose outward `normal`
+    /// points at the sphere; `relative_velocity_m_s` (m/s) is the sphere's
+    /// velocity minus the surface's. The surface does not spin.
+    #[inline(always)]
+    pub fn sphere_on_surface(
+        normal: Vector3<f64>,
+        overlap_m: f64,
+        radius_m: f64,
+        mass_eff_kg: f64,
+        relative_velocity_m_s: Vector3<f64>,
+        spin_rad_s: Vector3<f64>,
+    ) -> Self {
+        let vr = relative_velocity_m_s;
+        let vn = vr.dot(&normal);
+        // Contact-point velocity: v − R ω × n (the surface point moves
+        // with the surface).
+        ContactGeometry {
+            normal,
+            overlap_m,
+            radius_eff_m: radius_m,
+            mass_eff_kg,
+            normal_velocity_m_s: vn,
+            tangential_velocity_m_s: vr - normal * vn - (spin_rad_s * radius_m).cross(&normal),
+            relative_spin_rad_s: spin_rad_s,
+        }
+    }
+}
+
 /// `a` where `cond` holds and `b` elsewhere, per lane.
 #[inline(always)]
 pub(crate) fn select3<T: Real>(cond: T::Mask, a: Vector3<T>, b: Vector3<T>) -> Vector3<T> {
