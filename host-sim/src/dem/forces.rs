@@ -15,7 +15,7 @@ use super::contact::{
     ContactForce, ContactGeometry, ContactModel, History, Lanes, Real, HISTORY_LEN, LANE_COUNT,
 };
 use super::neighbour::NeighbourList;
-use super::particles::Particles;
+use super::particles::{Packed, Particles, VM, W, XR};
 use super::walls::{Wall, WallShape};
 use super::Params;
 
@@ -29,43 +29,6 @@ const BLOCKS_PER_WORKER: usize = 2;
 /// Cost of a touching pair in the pass, in listed pairs apart (measured:
 /// ≈ 45 ns against ≈ 5 ns).
 const TOUCHING_WEIGHT: u64 = 9;
-
-/// One particle's state as the pair pass reads it, packed so that a
-/// particle is three aligned 32-byte loads instead of five arrays: rows
-/// [`XR`] (position (m), radius (m)), [`VM`] (velocity (m/s), mass (kg))
-/// and [`W`] (angular velocity (rad/s), padding).
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub(crate) struct Packed([[f64; 4]; 3]);
-
-/// Row of [`Packed`]: position and radius.
-const XR: usize = 0;
-/// Row of [`Packed`]: velocity and mass.
-const VM: usize = 1;
-/// Row of [`Packed`]: angular velocity.
-const W: usize = 2;
-
-/// `p`'s state packed for the pair pass into `out`.
-fn pack(p: &Particles, out: &mut Vec<Packed>) {
-    out.resize(p.len(), Packed::default());
-    out.par_chunks_mut(GATHER_CHUNK)
-        .enumerate()
-        .for_each(|(c, out)| {
-            for (k, o) in out.iter_mut().enumerate() {
-                let i = c * GATHER_CHUNK + k;
-                let (x, v, w) = (
-                    p.position_m[i],
-                    p.velocity_m_s[i],
-                    p.angular_velocity_rad_s[i],
-                );
-                *o = Packed([
-                    [x.x, x.y, x.z, p.radius_m[i]],
-                    [v.x, v.y, v.z, p.mass_kg[i]],
-                    [w.x, w.y, w.z, 0.0],
-                ]);
-            }
-        });
-}
 
 /// Whether the spheres i and j overlap.
 #[inline(always)]
@@ -207,8 +170,6 @@ pub(crate) struct Blocks {
     /// `cross` of the pairs whose second particle lies in block b, ascending.
     incoming_start: Vec<usize>,
     incoming: Vec<u32>,
-    /// The particles' state packed for this step's pass.
-    packed: Vec<Packed>,
 }
 
 impl Blocks {
@@ -522,16 +483,17 @@ impl PairRun<'_> {
 }
 
 /// Body force and every pair contact of each particle into `p.force_n` and
-/// `p.torque_n_m` (overwritten), updating the pairs' histories.
+/// `p.torque_n_m` (overwritten), updating the pairs' histories; `packed`
+/// is `p`'s current state packed ([`Particles::pack_into`]).
 pub(crate) fn pair_forces(
     params: &Params,
     p: &mut Particles,
     list: &mut NeighbourList,
     blocks: &mut Blocks,
+    packed: &[Packed],
 ) {
     let simd = simd();
     blocks.split(list, rayon::current_num_threads() * BLOCKS_PER_WORKER);
-    pack(p, &mut blocks.packed);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
     let nb = blocks.count();
@@ -548,7 +510,7 @@ pub(crate) fn pair_forces(
     let (pi, pj) = (&list.pair_i[..], &list.pair_j[..]);
     let mut x = Inputs {
         p,
-        packed: &blocks.packed,
+        packed,
         model: &params.pair_model,
         dt_s: params.dt_s,
         body_accel: params.gravity_m_s2 * params.buoyancy_factor(),

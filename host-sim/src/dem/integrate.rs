@@ -4,15 +4,24 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::particles::Particles;
+use super::particles::{Packed, Particles};
 
 /// Particles per parallel task.
 const CHUNK: usize = 1024;
 
-/// First half: v += dt/2 F/m, ω += dt/2 τ/I, x += dt v. Returns the largest
-/// squared displacement from `reference_m` (m²), for the Verlet-list check.
-pub fn kick_drift(p: &mut Particles, dt_s: f64, reference_m: &[Vector3<f64>]) -> f64 {
+/// First half: v += dt/2 F/m, ω += dt/2 τ/I, x += dt v, writing the new
+/// state into `packed` (resized to fit) for the force pass that follows.
+/// Returns the largest squared displacement from `reference_m` (m²), for
+/// the Verlet-list check.
+pub(crate) fn kick_drift(
+    p: &mut Particles,
+    dt_s: f64,
+    reference_m: &[Vector3<f64>],
+    packed: &mut Vec<Packed>,
+) -> f64 {
     let h = 0.5 * dt_s;
+    packed.resize(p.len(), Packed::default());
+    let (r, m) = (&p.radius_m, &p.mass_kg);
     (
         p.position_m.par_chunks_mut(CHUNK),
         p.velocity_m_s.par_chunks_mut(CHUNK),
@@ -22,15 +31,19 @@ pub fn kick_drift(p: &mut Particles, dt_s: f64, reference_m: &[Vector3<f64>]) ->
         p.inv_mass_per_kg.par_chunks(CHUNK),
         p.inv_inertia_per_kg_m2.par_chunks(CHUNK),
         reference_m.par_chunks(CHUNK),
+        packed.par_chunks_mut(CHUNK),
     )
         .into_par_iter()
-        .map(|(x, v, w, f, t, im, ii, x0)| {
+        .enumerate()
+        .map(|(c, (x, v, w, f, t, im, ii, x0, out))| {
             let mut max2 = 0.0f64;
             for k in 0..x.len() {
                 v[k] += f[k] * (h * im[k]);
                 w[k] += t[k] * (h * ii[k]);
                 x[k] += v[k] * dt_s;
                 max2 = max2.max((x[k] - x0[k]).norm_squared());
+                let i = c * CHUNK + k;
+                out[k] = Packed::of(&x[k], &v[k], &w[k], r[i], m[i]);
             }
             max2
         })

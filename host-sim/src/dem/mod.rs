@@ -159,6 +159,9 @@ pub struct State {
     wall_contacts: forces::WallContacts,
     wall_force_n: Vec<Vector3<f64>>,
     forces_ready: bool,
+    /// The particles' state packed for the pair pass; current only right
+    /// after [`integrate::kick_drift`] wrote it.
+    packed: Vec<particles::Packed>,
 }
 
 impl State {
@@ -173,6 +176,7 @@ impl State {
             wall_contacts: forces::WallContacts::default(),
             wall_force_n: Vec::new(),
             forces_ready: false,
+            packed: Vec::new(),
         }
     }
 
@@ -237,13 +241,18 @@ impl State {
     }
 
     /// Contact, wall and body forces at the current positions, then the
-    /// sink's external forces.
-    fn evaluate_forces(&mut self, params: &Params, sink: &mut impl Sink) {
+    /// sink's external forces. `packed_current`: the integrator has just
+    /// packed the state (else it is packed here).
+    fn evaluate_forces(&mut self, params: &Params, sink: &mut impl Sink, packed_current: bool) {
+        if !packed_current {
+            self.particles.pack_into(&mut self.packed);
+        }
         forces::pair_forces(
             params,
             &mut self.particles,
             &mut self.neighbours,
             &mut self.blocks,
+            &self.packed,
         );
         self.wall_contacts.cull(
             &params.walls,
@@ -263,13 +272,14 @@ pub fn step(params: &Params, state: &mut State, sink: &mut impl Sink) -> Result<
     params.validate()?;
     state.prepare(params)?;
     if !state.forces_ready {
-        state.evaluate_forces(params, sink);
+        state.evaluate_forces(params, sink, false);
         state.forces_ready = true;
     }
     let max2 = integrate::kick_drift(
         &mut state.particles,
         params.dt_s,
         &state.neighbours.reference_m,
+        &mut state.packed,
     );
     if !max2.is_finite() {
         let bad = state
@@ -285,7 +295,8 @@ pub fn step(params: &Params, state: &mut State, sink: &mut impl Sink) -> Result<
         state.rebuild(params)?;
     }
     state.time_s += params.dt_s;
-    state.evaluate_forces(params, sink);
+    // Nothing moved the particles since kick_drift packed them.
+    state.evaluate_forces(params, sink, true);
     integrate::kick(&mut state.particles, params.dt_s);
     state.step_count += 1;
     sink.step_done(state);

@@ -1,6 +1,7 @@
 //! The particles' state, one array per quantity (structure of arrays).
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use super::DemError;
 
@@ -29,7 +30,63 @@ pub struct Particles {
     pub inv_inertia_per_kg_m2: Vec<f64>,
 }
 
+/// One particle's state as the pair pass reads it, packed so that a
+/// particle is three aligned 32-byte loads instead of five arrays: rows
+/// [`XR`] (position (m), radius (m)), [`VM`] (velocity (m/s), mass (kg))
+/// and [`W`] (angular velocity (rad/s), padding).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub(crate) struct Packed(pub(crate) [[f64; 4]; 3]);
+
+/// Row of [`Packed`]: position and radius.
+pub(crate) const XR: usize = 0;
+/// Row of [`Packed`]: velocity and mass.
+pub(crate) const VM: usize = 1;
+/// Row of [`Packed`]: angular velocity.
+pub(crate) const W: usize = 2;
+
+impl Packed {
+    /// The packed state of a particle at `x` (m) moving at `v` (m/s),
+    /// spinning at `w` (rad/s), of radius `r_m` (m) and mass `m_kg` (kg).
+    #[inline(always)]
+    pub(crate) fn of(
+        x: &Vector3<f64>,
+        v: &Vector3<f64>,
+        w: &Vector3<f64>,
+        r_m: f64,
+        m_kg: f64,
+    ) -> Packed {
+        Packed([
+            [x.x, x.y, x.z, r_m],
+            [v.x, v.y, v.z, m_kg],
+            [w.x, w.y, w.z, 0.0],
+        ])
+    }
+}
+
+/// Particles per parallel task when packing.
+const PACK_CHUNK: usize = 1024;
+
 impl Particles {
+    /// The state of every particle packed into `out` (resized to fit).
+    pub(crate) fn pack_into(&self, out: &mut Vec<Packed>) {
+        out.resize(self.len(), Packed::default());
+        out.par_chunks_mut(PACK_CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                for (k, o) in out.iter_mut().enumerate() {
+                    let i = c * PACK_CHUNK + k;
+                    *o = Packed::of(
+                        &self.position_m[i],
+                        &self.velocity_m_s[i],
+                        &self.angular_velocity_rad_s[i],
+                        self.radius_m[i],
+                        self.mass_kg[i],
+                    );
+                }
+            });
+    }
+
     /// No particles.
     pub fn new() -> Self {
         Self::default()
