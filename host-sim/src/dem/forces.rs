@@ -588,6 +588,7 @@ pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallCo
     let mut torque = std::mem::take(&mut p.torque_n_m);
     let pr: &Particles = p;
     let near = &walls.near;
+    let (candidates, candidate_start) = (&walls.candidates, &walls.candidate_start);
     (
         force.par_chunks_mut(GATHER_CHUNK),
         torque.par_chunks_mut(GATHER_CHUNK),
@@ -599,8 +600,10 @@ pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallCo
         .enumerate()
         .for_each(|(c, (f, t, wh, mask, wp))| {
             wp.iter_mut().for_each(|w| *w = Vector3::zeros());
-            for k in 0..f.len() {
-                let i = c * GATHER_CHUNK + k;
+            // Only particles that may touch a wall, ascending.
+            for &i in &candidates[candidate_start[c]..candidate_start[c + 1]] {
+                let i = i as usize;
+                let k = i - c * GATHER_CHUNK;
                 let ri = pr.radius_m[i];
                 let mut fi = f[k];
                 let mut ti = t[k];
@@ -652,6 +655,12 @@ pub(crate) struct WallContacts {
     /// Bit w set if particle i can touch wall w before the next list build
     /// ([`WallContacts::cull`]); only those and the open ones are checked.
     pub(crate) near: Vec<u64>,
+    /// Particles with a bit set in `near` or `open` at the last cull,
+    /// ascending: the only ones the wall pass visits.
+    candidates: Vec<u32>,
+    /// `candidates[candidate_start[c]..candidate_start[c + 1]]` lie in
+    /// wall-pass chunk c.
+    candidate_start: Vec<usize>,
     /// The list build and wall shapes `near` was made for.
     near_for: (u64, Vec<WallShape>),
     /// Chunk c's force on wall w at `c * stride + w` (N), summed in chunk
@@ -698,19 +707,35 @@ impl WallContacts {
         if walls.len() > MAX_CULLED_WALLS {
             self.near.clear();
             self.near.resize(p.len(), u64::MAX);
-            return;
+        } else {
+            list.reference_m
+                .par_iter()
+                .zip(p.radius_m.par_iter())
+                .map(|(x, &r)| {
+                    walls
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, wall)| wall.clearance_m(x, r) < skin_m)
+                        .fold(0u64, |m, (w, _)| m | 1 << w)
+                })
+                .collect_into_vec(&mut self.near);
         }
-        list.reference_m
-            .par_iter()
-            .zip(p.radius_m.par_iter())
-            .map(|(x, &r)| {
-                walls
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, wall)| wall.clearance_m(x, r) < skin_m)
-                    .fold(0u64, |m, (w, _)| m | 1 << w)
-            })
-            .collect_into_vec(&mut self.near);
+        // A particle neither near a wall nor touching one now cannot touch
+        // one before the next build: the wall pass skips it.
+        self.candidates.clear();
+        self.candidate_start.clear();
+        self.candidate_start.push(0);
+        for (i, (&near, &open)) in self.near.iter().zip(&self.open).enumerate() {
+            if i > 0 && i % GATHER_CHUNK == 0 {
+                self.candidate_start.push(self.candidates.len());
+            }
+            if near | open != 0 {
+                self.candidates.push(i as u32);
+            }
+        }
+        let chunks = p.len().div_ceil(GATHER_CHUNK);
+        self.candidate_start
+            .resize(chunks + 1, self.candidates.len());
     }
 
     /// Total force on each wall (N) from the chunks' partial sums.
