@@ -15,7 +15,7 @@ use super::contact::{
     ContactForce, ContactGeometry, ContactModel, History, Lanes, Real, HISTORY_LEN, LANE_COUNT,
 };
 use super::neighbour::NeighbourList;
-use super::particles::{Packed, Particles, VM, W, XR};
+use super::particles::{Packed, Particles, Sphere};
 use super::walls::{Wall, WallShape};
 use super::Params;
 
@@ -32,8 +32,8 @@ const TOUCHING_WEIGHT: u64 = 9;
 
 /// Whether the spheres i and j overlap.
 #[inline(always)]
-fn overlapping(p: &[Packed], i: usize, j: usize) -> bool {
-    let (a, b) = (&p[i].0[XR], &p[j].0[XR]);
+fn overlapping(p: &[Sphere], i: usize, j: usize) -> bool {
+    let (a, b) = (&p[i].0, &p[j].0);
     let sum = a[3] + b[3];
     let d = Vector3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
     d.norm_squared() < sum * sum
@@ -42,25 +42,32 @@ fn overlapping(p: &[Packed], i: usize, j: usize) -> bool {
 /// Geometry of the overlapping pairs (i[l], j[l]), one per lane.
 #[inline(always)]
 fn pair_geometry_lanes(
-    p: &[Packed],
+    p: &Packed,
     i: &[usize; LANE_COUNT],
     j: &[usize; LANE_COUNT],
 ) -> ContactGeometry<Lanes> {
-    let (pi, pj) = (i.map(|k| &p[k].0), j.map(|k| &p[k].0));
-    let vec = |q: &[&[[f64; 4]; 3]; LANE_COUNT], row: usize| {
-        Vector3::new(
-            Lanes(q.map(|q| q[row][0])),
-            Lanes(q.map(|q| q[row][1])),
-            Lanes(q.map(|q| q[row][2])),
+    let row = |k: &[usize; LANE_COUNT]| {
+        (
+            k.map(|k| &p.sphere[k].0),
+            k.map(|k| &p.motion[k].0[0]),
+            k.map(|k| &p.motion[k].0[1]),
         )
     };
-    let fourth = |q: &[&[[f64; 4]; 3]; LANE_COUNT], row: usize| Lanes(q.map(|q| q[row][3]));
+    let ((xi, vi, wi), (xj, vj, wj)) = (row(i), row(j));
+    let vec = |q: &[&[f64; 4]; LANE_COUNT]| {
+        Vector3::new(
+            Lanes(q.map(|q| q[0])),
+            Lanes(q.map(|q| q[1])),
+            Lanes(q.map(|q| q[2])),
+        )
+    };
+    let fourth = |q: &[&[f64; 4]; LANE_COUNT]| Lanes(q.map(|q| q[3]));
     ContactGeometry::spheres(
-        [&vec(&pi, XR), &vec(&pj, XR)],
-        [&vec(&pi, VM), &vec(&pj, VM)],
-        [&vec(&pi, W), &vec(&pj, W)],
-        [fourth(&pi, XR), fourth(&pj, XR)],
-        [fourth(&pi, VM), fourth(&pj, VM)],
+        [&vec(&xi), &vec(&xj)],
+        [&vec(&vi), &vec(&vj)],
+        [&vec(&wi), &vec(&wj)],
+        [fourth(&xi), fourth(&xj)],
+        [fourth(&vi), fourth(&vj)],
     )
 }
 
@@ -95,7 +102,7 @@ impl<'a> PairRun<'a> {
     /// returning how many; pairs apart are marked closed. No branch on the
     /// outcome: which pairs touch is a coin toss to the branch predictor.
     #[inline(always)]
-    fn sort_out(&mut self, p: &[Packed], slots: &[u32], touching: &mut [u32; PAIR_CHUNK]) -> usize {
+    fn sort_out(&mut self, p: &[Sphere], slots: &[u32], touching: &mut [u32; PAIR_CHUNK]) -> usize {
         let mut count = 0;
         for (n, &s) in slots.iter().enumerate() {
             let s = s as usize;
@@ -114,7 +121,7 @@ impl<'a> PairRun<'a> {
     #[inline(always)]
     fn evaluate(
         &mut self,
-        p: &[Packed],
+        p: &Packed,
         model: &ContactModel,
         dt_s: f64,
         slots: &[u32],
@@ -327,7 +334,7 @@ pub fn use_simd(level: Simd) -> Simd {
 /// What every block's task reads.
 struct Inputs<'a> {
     p: &'a Particles,
-    packed: &'a [Packed],
+    packed: &'a Packed,
     model: &'a ContactModel,
     dt_s: f64,
     body_accel: Vector3<f64>,
@@ -365,7 +372,7 @@ impl PairRun<'_> {
                 *s = k - k0 as u32;
             }
             let slots = &slots[..chunk.len()];
-            let count = self.sort_out(x.packed, slots, &mut touching);
+            let count = self.sort_out(&x.packed.sphere, slots, &mut touching);
             out.fill(ContactForce::default());
             let which = &touching[..count];
             let mut w = 0;
@@ -425,7 +432,7 @@ impl PairRun<'_> {
                 *s = (s0 + n) as u32;
             }
             let slots = &slots[..m];
-            let count = self.sort_out(x.packed, slots, &mut touching);
+            let count = self.sort_out(&x.packed.sphere, slots, &mut touching);
             let mut n_inside = 0;
             for &w in &touching[..count] {
                 inside[n_inside] = w;
@@ -490,7 +497,7 @@ pub(crate) fn pair_forces(
     p: &mut Particles,
     list: &mut NeighbourList,
     blocks: &mut Blocks,
-    packed: &[Packed],
+    packed: &Packed,
 ) {
     let simd = simd();
     blocks.split(list, rayon::current_num_threads() * BLOCKS_PER_WORKER);

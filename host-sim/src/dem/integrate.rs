@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::particles::{Packed, Particles};
+use super::particles::{pack_one, Packed, Particles};
 
 /// Particles per parallel task.
 const CHUNK: usize = 1024;
@@ -17,10 +17,10 @@ pub(crate) fn kick_drift(
     p: &mut Particles,
     dt_s: f64,
     reference_m: &[Vector3<f64>],
-    packed: &mut Vec<Packed>,
+    packed: &mut Packed,
 ) -> f64 {
     let h = 0.5 * dt_s;
-    packed.resize(p.len(), Packed::default());
+    packed.resize(p.len());
     let (r, m) = (&p.radius_m, &p.mass_kg);
     (
         p.position_m.par_chunks_mut(CHUNK),
@@ -31,11 +31,12 @@ pub(crate) fn kick_drift(
         p.inv_mass_per_kg.par_chunks(CHUNK),
         p.inv_inertia_per_kg_m2.par_chunks(CHUNK),
         reference_m.par_chunks(CHUNK),
-        packed.par_chunks_mut(CHUNK),
+        packed.sphere.par_chunks_mut(CHUNK),
+        packed.motion.par_chunks_mut(CHUNK),
     )
         .into_par_iter()
         .enumerate()
-        .map(|(c, (x, v, w, f, t, im, ii, x0, out))| {
+        .map(|(c, (x, v, w, f, t, im, ii, x0, sphere, motion))| {
             let mut max2 = 0.0f64;
             for k in 0..x.len() {
                 v[k] += f[k] * (h * im[k]);
@@ -43,7 +44,7 @@ pub(crate) fn kick_drift(
                 x[k] += v[k] * dt_s;
                 max2 = max2.max((x[k] - x0[k]).norm_squared());
                 let i = c * CHUNK + k;
-                out[k] = Packed::of(&x[k], &v[k], &w[k], r[i], m[i]);
+                (sphere[k], motion[k]) = pack_one(&x[k], &v[k], &w[k], r[i], m[i]);
             }
             max2
         })

@@ -161,7 +161,7 @@ pub struct State {
     forces_ready: bool,
     /// The particles' state packed for the pair pass; current only right
     /// after [`integrate::kick_drift`] wrote it.
-    packed: Vec<particles::Packed>,
+    packed: particles::Packed,
 }
 
 impl State {
@@ -176,7 +176,7 @@ impl State {
             wall_contacts: forces::WallContacts::default(),
             wall_force_n: Vec::new(),
             forces_ready: false,
-            packed: Vec::new(),
+            packed: particles::Packed::default(),
         }
     }
 
