@@ -17,7 +17,7 @@ use super::contact::{
 use super::neighbour::NeighbourList;
 use super::particles::{Packed, Particles, Sphere};
 use super::walls::{Wall, WallShape};
-use super::Params;
+use super::{split_lengths, Params};
 
 /// Pairs gathered and evaluated together (sized for the L1 cache).
 const PAIR_CHUNK: usize = 256;
@@ -244,16 +244,6 @@ impl Blocks {
     fn count(&self) -> usize {
         self.first.len() - 1
     }
-}
-
-/// `s` cut into consecutive pieces of lengths `lens`.
-fn split_lengths<T>(mut s: &mut [T], lens: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
-    lens.map(|len| {
-        let (piece, rest) = std::mem::take(&mut s).split_at_mut(len);
-        s = rest;
-        piece
-    })
-    .collect()
 }
 
 /// Adds contact `cf` (from the first particle's point of view) to a

@@ -266,6 +266,20 @@ impl State {
     }
 }
 
+/// `s` cut into consecutive pieces of lengths `lens` (which must not sum
+/// past its length), for handing disjoint parts to parallel tasks.
+pub(crate) fn split_lengths<T>(
+    mut s: &mut [T],
+    lens: impl Iterator<Item = usize>,
+) -> Vec<&mut [T]> {
+    lens.map(|len| {
+        let (piece, rest) = std::mem::take(&mut s).split_at_mut(len);
+        s = rest;
+        piece
+    })
+    .collect()
+}
+
 /// Advances `state` by one step `params.dt_s` (velocity Verlet), calling
 /// `sink` for external forces and at the end.
 pub fn step(params: &Params, state: &mut State, sink: &mut impl Sink) -> Result<(), DemError> {

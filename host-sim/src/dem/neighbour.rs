@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::contact::History;
-use super::DemError;
+use super::{split_lengths, DemError};
 
 /// Particles per parallel task when building.
 const BUILD_CHUNK: usize = 512;
@@ -127,11 +127,11 @@ impl NeighbourList {
         let particle_lens: Vec<usize> = (0..chunk_count).map(|c| chunk_range(c).len()).collect();
         (
             found.par_iter(),
-            split_mut(&mut start[1..], &particle_lens),
-            split_mut(&mut pair_i, &pair_lens),
-            split_mut(&mut pair_j, &pair_lens),
-            split_mut(&mut history, &pair_lens),
-            split_mut(&mut open, &pair_lens),
+            split_lengths(&mut start[1..], particle_lens.iter().copied()),
+            split_lengths(&mut pair_i, pair_lens.iter().copied()),
+            split_lengths(&mut pair_j, pair_lens.iter().copied()),
+            split_lengths(&mut history, pair_lens.iter().copied()),
+            split_lengths(&mut open, pair_lens.iter().copied()),
         )
             .into_par_iter()
             .enumerate()
@@ -179,18 +179,6 @@ impl NeighbourList {
         self.builds += 1;
         Ok(())
     }
-}
-
-/// `data` cut into consecutive pieces of `lens` (which must not sum past
-/// its length).
-fn split_mut<'a, T>(mut data: &'a mut [T], lens: &[usize]) -> Vec<&'a mut [T]> {
-    let mut out = Vec::with_capacity(lens.len());
-    for &len in lens {
-        let (head, tail) = std::mem::take(&mut data).split_at_mut(len);
-        out.push(head);
-        data = tail;
-    }
-    out
 }
 
 /// A uniform cell grid over the particles' bounding box, cells at least
