@@ -35,7 +35,7 @@ pub struct NeighbourList {
     pub(crate) skin_m: f64,
     /// Number of builds so far.
     pub builds: u64,
-    /// The arrays of the build before last, reused by the next one (fresh
+    /// The arrays the last build replaced, refilled by the next one (fresh
     /// allocations of this size would cost a page fault per 4 KiB).
     spare: Spare,
 }
