@@ -93,6 +93,16 @@ enum Command {
         /// so more grains bear on its face; the time step follows them.
         #[arg(long = "face-grain-radius-mm")]
         face_grain_radius_mm: Option<f64>,
+        /// Young's modulus of the grains during the advance and the
+        /// expansion (MPa): stiffer grains overlap less and load the head
+        /// harder as it advances, at a time step shorter as 1/√E.
+        #[arg(long = "grain-modulus-mpa", default_value_t = host_sim::simulate::scenario::GRAIN_MODULUS_PA * 1e-6)]
+        grain_modulus_mpa: f64,
+        /// Young's modulus of the grains while the bed settles (MPa), then
+        /// stiffened to --grain-modulus-mpa; the same value: one modulus
+        /// throughout.
+        #[arg(long = "deposition-modulus-mpa", default_value_t = host_sim::simulate::scenario::DEPOSITION_MODULUS_PA * 1e-6)]
+        deposition_modulus_mpa: f64,
         /// Sand only up to this height above the axis (mm), the overburden
         /// above as a surcharge layer: cheaper, weaker (no shear strength).
         #[arg(long = "surcharge-above-mm")]
@@ -136,6 +146,11 @@ enum Command {
         /// Beds per depth (seeds 1, 2, …), their samples pooled in the bins.
         #[arg(long, default_value_t = host_sim::sand::regenerate::DEFAULT_SEEDS, value_parser = clap::value_parser!(u64).range(1..=1000))]
         seeds: u64,
+        /// Also keep the runs' results here, one hDEPTHmm folder per depth
+        /// (each seed's `simulate` output, and the mean ± SD over seeds in
+        /// ensemble.csv/.txt/.svg).
+        #[arg(long = "runs-out")]
+        runs_out: Option<PathBuf>,
     },
     /// Benchmarks (`bench dem`: the DEM throughput problem of shared/bench).
     Bench {
@@ -324,6 +339,8 @@ fn run(cli: Cli) -> Result<()> {
             expansion_s,
             advance_mm,
             face_grain_radius_mm,
+            grain_modulus_mpa,
+            deposition_modulus_mpa,
             surcharge_above_mm,
             seed,
             seeds,
@@ -363,6 +380,8 @@ fn run(cli: Cli) -> Result<()> {
             spec.seed = seed;
             spec.face_grain_radius_m = face_grain_radius_mm.map(|f| f * 1e-3);
             spec.advance_m = advance_mm * 1e-3;
+            spec.grain_modulus_pa = grain_modulus_mpa * 1e6;
+            spec.deposition_modulus_pa = deposition_modulus_mpa * 1e6;
             if let Some(t) = expansion_s {
                 spec.expansion_s = t;
             }
@@ -392,6 +411,7 @@ fn run(cli: Cli) -> Result<()> {
             rig,
             final_diameter_mm,
             seeds,
+            runs_out,
         } => {
             use host_sim::sand::regenerate::{regenerate, RegenerateOptions, RigSetup};
             let out =
@@ -411,6 +431,7 @@ fn run(cli: Cli) -> Result<()> {
                 progress: true,
                 rig,
                 seeds,
+                runs_out,
             };
             regenerate(&opts, &out, |run| {
                 println!(

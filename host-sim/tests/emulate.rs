@@ -99,8 +99,21 @@ fn assert_normal(name: &str, depth_mm: f64) {
     // stop), between where the sand's slope falls to
     // plateau_slope_fraction of its initial value and that point plus the
     // detector's lag: a window, the confirmation and one period of pumping.
+    // Either pressure rule may end it there, never the pumped volume: the
+    // plateau detector, or the table's diameter estimate reaching the
+    // target first. The plant's parametric sand levels off by ≈ 22 mm while
+    // the table's (the solver's rows) still rises to ≈ 24.5 mm, so on the
+    // plateau the pressure reads a diameter 1.5–2.5 mm high and, with the
+    // stiff-grain solver data at 40 mm, crosses 25 mm in some cycles.
     let params = trace.scenario.params;
-    assert_eq!(o.expand_ends, vec!["Plateau".to_owned(); 20]);
+    assert_eq!(o.expand_ends.len(), 20);
+    for end in &o.expand_ends {
+        assert!(
+            end == "Plateau" || end == "TableTarget",
+            "an expansion ended by {end}: {:?}",
+            o.expand_ends
+        );
+    }
     let zone = ExpansionZone::of(&TABLE);
     let d_r = plateau_diameter_mm(f64::from(params.plateau_slope_fraction));
     let lag_ml = f64::from(params.expand_rate_ml_per_s) * f64::from(CONTROL_PERIOD_MS) / 1000.0

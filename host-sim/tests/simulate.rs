@@ -471,3 +471,70 @@ fn the_advance_carries_head_and_zone_together_and_loads_the_face() {
         settled.face_pressure_pa
     );
 }
+
+#[test]
+fn the_bed_settles_soft_and_is_stiffened_for_the_advance_and_expansion() {
+    use host_sim::dem::contact::{ContactModel, Normal, Tangential};
+    use host_sim::simulate::scenario::{skin_material, wall};
+    let spec = ScenarioSpec::paper(40e-3, 1.5e-3);
+    assert_eq!(spec.grain_modulus_pa, 10.0 * spec.deposition_modulus_pa);
+    // The Rayleigh time goes as 1/√E: four times stiffer, half the step.
+    let four = ScenarioSpec {
+        grain_modulus_pa: 4.0 * spec.deposition_modulus_pa,
+        ..spec.clone()
+    };
+    assert_eq!(four.dt_s(), 0.5 * four.settle_dt_s());
+    assert!((spec.settle_dt_s() / spec.dt_s() - 10f64.sqrt()).abs() < 1e-12);
+
+    let e_star = |m: &ContactModel| match m.normal {
+        Normal::Hertz(h) => h.effective_modulus_pa,
+        Normal::None(_) => panic!("Hertz contacts"),
+    };
+    let friction = |m: &ContactModel| match m.tangential {
+        Tangential::Mindlin(t) => t.friction,
+        Tangential::None(_) => panic!("Mindlin contacts"),
+    };
+    // Every law of the bed against grains of modulus `e_pa` and step `dt`.
+    let check = |bed: &host_sim::simulate::scenario::Bed, e_pa: f64, dt: f64| {
+        // E* of two equal grains: E / (2 (1 − ν²)), ν = 0.3.
+        let grains = e_pa / (2.0 * (1.0 - 0.09));
+        let face = bed.coupling.face.as_ref().expect("the head's face");
+        let mut laws = vec![&bed.params.pair_model, &face.model];
+        laws.extend(bed.params.walls.iter().map(|w| &w.model));
+        for m in laws {
+            assert!((e_star(m) / grains - 1.0).abs() < 1e-12, "{m:?}");
+        }
+        let sand = host_sim::dem::contact::Material {
+            youngs_modulus_pa: e_pa,
+            poisson_ratio: 0.3,
+            density_kg_m3: spec.grain_density_kg_m3,
+        };
+        let skin = sand.effective_modulus_pa(&skin_material(&spec.skin_law()));
+        assert!((e_star(&bed.coupling.model) / skin - 1.0).abs() < 1e-12);
+        assert_eq!(
+            (bed.params.dt_s, bed.coupling.dt_s, face.dt_s),
+            (dt, dt, dt)
+        );
+        // The frictions stay the scenario's: smooth floor, rough sides.
+        assert_eq!(friction(&bed.params.pair_model), spec.friction);
+        assert_eq!(friction(&bed.params.walls[wall::FLOOR].model), 0.0);
+        assert_eq!(
+            friction(&bed.params.walls[wall::SIDE_POS_X].model),
+            spec.wall_friction
+        );
+    };
+    let mut bed = host_sim::simulate::build(&spec).unwrap();
+    check(&bed, spec.deposition_modulus_pa, spec.settle_dt_s());
+    bed.set_grain_modulus(spec.grain_modulus_pa).unwrap();
+    check(&bed, spec.grain_modulus_pa, spec.dt_s());
+    assert!(bed.set_grain_modulus(-1.0).is_err());
+
+    let bad = ScenarioSpec {
+        deposition_modulus_pa: 0.0,
+        ..spec
+    };
+    let Err(err) = host_sim::simulate::build(&bad) else {
+        panic!("a zero deposition modulus is refused")
+    };
+    assert!(err.to_string().contains("deposition modulus"), "{err:#}");
+}

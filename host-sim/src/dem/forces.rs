@@ -33,10 +33,7 @@ const TOUCHING_WEIGHT: u64 = 9;
 /// Whether the spheres i and j overlap.
 #[inline(always)]
 fn overlapping(p: &[Sphere], i: usize, j: usize) -> bool {
-    let (a, b) = (&p[i].0, &p[j].0);
-    let sum = a[3] + b[3];
-    let d = Vector3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
-    d.norm_squared() < sum * sum
+    p[i].overlaps(&p[j])
 }
 
 /// Geometry of the overlapping pairs (i[l], j[l]), one per lane.
@@ -136,10 +133,15 @@ impl<'a> PairRun<'a> {
             let i = batch.map(|s| self.pi[s] as usize);
             let j = batch.map(|s| self.pj[s] as usize);
             let g = pair_geometry_lanes(p, &i, &j);
-            let open = batch.map(|s| self.open[s] != 0);
-            let mut h: [Lanes; HISTORY_LEN] = std::array::from_fn(|c| {
-                Lanes(batch.map(|s| self.history[s][c])).select(open, zero)
-            });
+            // Plain loops: the `array::from_fn` form was left out of line
+            // (a call per history component, outside the AVX2 copy).
+            let mut h = [zero; HISTORY_LEN];
+            for (l, &s) in batch.iter().enumerate() {
+                let (stored, open) = (&self.history[s], self.open[s] != 0);
+                for (h, &v) in h.iter_mut().zip(stored) {
+                    h.0[l] = if open { v } else { 0.0 };
+                }
+            }
             let f = model.evaluate(&g, dt_s, &mut h);
             let h = h.map(|c| c.0);
             let vec = |v: Vector3<Lanes>| [v.x.0, v.y.0, v.z.0];

@@ -40,6 +40,7 @@ pub use contact::{ContactModel, ContactSpec, Material};
 pub use forces::{best_simd, simd, use_simd, Simd};
 pub use neighbour::NeighbourList;
 pub use particles::Particles;
+use particles::Sphere;
 pub use sink::Sink;
 pub use walls::{CylinderSide, Wall, WallShape};
 
@@ -199,8 +200,8 @@ impl State {
             .into_par_iter()
             .filter(|&k| {
                 let (i, j) = (l.pair_i[k] as usize, l.pair_j[k] as usize);
-                let s = p.radius_m[i] + p.radius_m[j];
-                (p.position_m[i] - p.position_m[j]).norm_squared() < s * s
+                let sphere = |i: usize| Sphere::new(&p.position_m[i], p.radius_m[i]);
+                sphere(i).overlaps(&sphere(j))
             })
             .count()
     }

@@ -36,6 +36,24 @@ pub struct Particles {
 #[repr(C, align(32))]
 pub(crate) struct Sphere(pub(crate) [f64; 4]);
 
+impl Sphere {
+    /// The sphere at `position_m` (m) of radius `radius_m` (m).
+    #[inline(always)]
+    pub(crate) fn new(position_m: &Vector3<f64>, radius_m: f64) -> Sphere {
+        Sphere([position_m.x, position_m.y, position_m.z, radius_m])
+    }
+
+    /// Whether this sphere and `other` overlap (the one test of the pair
+    /// pass and of the contact count).
+    #[inline(always)]
+    pub(crate) fn overlaps(&self, other: &Sphere) -> bool {
+        let (a, b) = (&self.0, &other.0);
+        let sum = a[3] + b[3];
+        let d = Vector3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+        d.norm_squared() < sum * sum
+    }
+}
+
 /// A particle's velocity (m/s) and mass (kg), then its angular velocity
 /// (rad/s) and padding: what a touching pair reads besides [`Sphere`], one
 /// cache line.
@@ -72,7 +90,7 @@ pub(crate) fn pack_one(
     m_kg: f64,
 ) -> (Sphere, Motion) {
     (
-        Sphere([x.x, x.y, x.z, r_m]),
+        Sphere::new(x, r_m),
         Motion([[v.x, v.y, v.z, m_kg], [w.x, w.y, w.z, 0.0]]),
     )
 }

@@ -16,7 +16,7 @@
 //! accident.
 
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{ensure, Context, Result};
@@ -118,6 +118,10 @@ pub struct RegenerateOptions {
     pub rig: Option<RigSetup>,
     /// Beds per depth (seeds 1..=seeds), pooled in the bins (≥ 1).
     pub seeds: u64,
+    /// Where to keep the runs' own results (`hDEPTHmm/` per depth: each
+    /// seed's `simulate` folder and the ensemble's mean ± SD); `None`:
+    /// nothing but the data file.
+    pub runs_out: Option<PathBuf>,
 }
 
 /// A user's set-up for the solver runs ([`ScenarioSpec::with_rig`]).
@@ -140,6 +144,7 @@ impl RegenerateOptions {
             progress: false,
             rig: None,
             seeds: DEFAULT_SEEDS,
+            runs_out: None,
         }
     }
 
@@ -204,7 +209,11 @@ pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
     let base = opts.spec(depth_mm)?;
     let final_mm = base.final_diameter_m * 1e3;
     let seeds = opts.seed_list(&base);
-    let ensemble = Ensemble::run(&base, &seeds, None, opts.progress)
+    let dir = opts
+        .runs_out
+        .as_ref()
+        .map(|d| d.join(format!("h{depth_mm}mm")));
+    let ensemble = Ensemble::run(&base, &seeds, dir.as_deref(), opts.progress)
         .with_context(|| format!("solver runs at h = {depth_mm} mm"))?;
     let mut points: Vec<(f64, f64)> = Vec::new();
     let (mut settled_mm, mut grains) = (f64::INFINITY, 0);
@@ -277,6 +286,13 @@ pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
     // Rounded to the nm: no binary noise in the header.
     let r_mm = (probe.grain_radius_m * 1e9).round() / 1e6;
     let _ = writeln!(s, "# grain_radius_mm = {r_mm}");
+    // The grains' stiffness during the expansion, and while they settled.
+    let _ = writeln!(s, "# grain_modulus_mpa = {}", probe.grain_modulus_pa * 1e-6);
+    let _ = writeln!(
+        s,
+        "# deposition_modulus_mpa = {}",
+        probe.deposition_modulus_pa * 1e-6
+    );
     if opts.rig.is_some() {
         let _ = writeln!(s, "# setup = {}", probe.setup);
         let _ = writeln!(

@@ -130,7 +130,7 @@ impl Report {
         let st = &self.settled;
         let _ = writeln!(
             s,
-            "simulate ({}): depth {:.0} mm, zone {} → {:.2} mm over {} mm, grain radius {:.2} mm{}, {} slab + {} surcharge grains, surcharge {:.0} Pa, dt {:.2e} s",
+            "simulate ({}): depth {:.0} mm, zone {} → {:.2} mm over {} mm, grain radius {:.2} mm{}, grain modulus {} MPa (settled at {} MPa), {} slab + {} surcharge grains, surcharge {:.0} Pa, dt {:.2e} s",
             self.spec.setup,
             self.spec.depth_m * 1e3,
             self.spec.tube.outer_diameter_mm,
@@ -140,6 +140,8 @@ impl Report {
             self.spec
                 .face_grain_radius_m
                 .map_or(String::new(), |f| format!(" ({:.2} mm ahead of the face)", f * 1e3)),
+            self.spec.grain_modulus_pa * 1e-6,
+            self.spec.deposition_modulus_pa * 1e-6,
             self.grains.0,
             self.grains.1,
             self.surcharge_pa,

@@ -5,7 +5,7 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::scenario::{grain_contacts, wall, Bed, FLUID_BULK_MODULUS_PA};
+use super::scenario::{grain_contacts, wall, Bed, FLUID_BULK_MODULUS_PA, RELAX_S};
 use crate::coupling::{expand, Expansion, Sample};
 use crate::dem::step;
 
@@ -49,7 +49,8 @@ fn support_n(bed: &Bed) -> f64 {
 }
 
 /// Lets the grains settle for `spec.settle_s` round the zone holding its
-/// resting fluid volume.
+/// resting fluid volume, at the deposition modulus, then stiffens them to
+/// the sand's ([`stiffen`]) when that differs.
 pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
     let steps = (bed.spec.settle_s / bed.params.dt_s).ceil() as u64;
     bar.set_length(steps);
@@ -69,13 +70,7 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
         if k == steps / 2 {
             bed.params.pair_model = sand_model;
         }
-        step(&bed.params, &mut bed.state, &mut bed.coupling).context("settling the bed")?;
-        let p = &mut bed.state.particles;
-        p.velocity_m_s.iter_mut().for_each(|v| *v *= keep);
-        p.angular_velocity_rad_s.iter_mut().for_each(|w| *w *= keep);
-        if let Some(e) = bed.coupling.error() {
-            return Err(e.clone()).context("skin while settling");
-        }
+        dragged_step(bed, keep).context("settling the bed")?;
         if k >= from {
             let c = &bed.coupling;
             let face = c.face.as_ref().map_or(0.0, |f| f.pressure_pa());
@@ -94,6 +89,9 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
     }
     bar.set_position(steps);
     let mean = sums.map(|s| s / (steps - from).max(1) as f64);
+    if bed.spec.grain_modulus_pa != bed.spec.deposition_modulus_pa {
+        stiffen(bed, bar)?;
+    }
     let p = &bed.state.particles;
     let slab_top_m = (0..bed.slab_grains)
         .map(|i| p.position_m[i].y + p.radius_m[i])
@@ -111,6 +109,39 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
         kinetic_energy_j: p.kinetic_energy_j(),
         head_settling_m: bed.coupling.skin.head.map_or(0.0, |h| h.receding_m()),
     })
+}
+
+/// One step of the bed, then the settling drag: every velocity times
+/// `keep`.
+fn dragged_step(bed: &mut Bed, keep: f64) -> Result<()> {
+    step(&bed.params, &mut bed.state, &mut bed.coupling)?;
+    let p = &mut bed.state.particles;
+    p.velocity_m_s.iter_mut().for_each(|v| *v *= keep);
+    p.angular_velocity_rad_s.iter_mut().for_each(|w| *w *= keep);
+    if let Some(e) = bed.coupling.error() {
+        return Err(e.clone()).context("skin");
+    }
+    Ok(())
+}
+
+/// Gives the settled bed the sand's modulus and lets it relax for
+/// [`RELAX_S`] under the settling drag: the stiffer contacts push the
+/// grains apart by most of their soft overlaps.
+fn stiffen(bed: &mut Bed, bar: &ProgressBar) -> Result<()> {
+    bed.set_grain_modulus(bed.spec.grain_modulus_pa)?;
+    let steps = (RELAX_S / bed.params.dt_s).ceil() as u64;
+    bar.set_message("stiffening");
+    bar.set_length(steps);
+    bar.set_position(0);
+    let keep = (-bed.params.dt_s / SETTLE_DRAG_S).exp();
+    for k in 0..steps {
+        dragged_step(bed, keep).context("relaxing the stiffened bed")?;
+        if k % 100 == 0 {
+            bar.set_position(k);
+        }
+    }
+    bar.set_position(steps);
+    Ok(())
 }
 
 /// Advances the actuator `spec.advance_m` into the settled sand over

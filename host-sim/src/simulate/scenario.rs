@@ -39,6 +39,17 @@ use crate::skin::{default_skin, StrainEnergy, Yeoh};
 pub const DEFAULT_GRAIN_RADIUS_M: f64 = 1.5e-3;
 /// Grain density of the paper's sand (kg/m³).
 pub const GRAIN_DENSITY_KG_M3: f64 = 2920.0;
+/// Default Young's modulus of the coarse grains during the advance and the
+/// expansion (Pa). Stiff enough that the face load is converged: at 1e7 Pa
+/// (Hertz overlaps ≈ 2.5 % of r at 100 mm) the advance loaded the face 3×
+/// less at depth and its drop fell short of the paper's (README-simulate).
+pub const GRAIN_MODULUS_PA: f64 = 1.0e8;
+/// Default Young's modulus of the grains while the bed settles (Pa): the
+/// DEM benchmark's soft grains, for a √10 longer step.
+pub const DEPOSITION_MODULUS_PA: f64 = 1.0e7;
+/// How long the stiffened bed relaxes, with the settling drag, before the
+/// advance (s): a few drag times.
+pub const RELAX_S: f64 = 0.03;
 /// Density of the water the sand is submerged in (kg/m³).
 pub const WATER_DENSITY_KG_M3: f64 = 1025.0;
 /// Inter-grain friction of the paper.
@@ -149,6 +160,15 @@ pub struct ScenarioSpec {
     pub advance_m: f64,
     /// Duration of that advance (s).
     pub advance_s: f64,
+    /// Young's modulus of the grains during the advance and the expansion
+    /// (Pa); the time step scales as the Rayleigh time, ∝ 1/√E. Default
+    /// [`GRAIN_MODULUS_PA`].
+    pub grain_modulus_pa: f64,
+    /// Young's modulus of the grains while the bed settles (Pa): softer
+    /// for a longer step where nothing is measured; the bed is then
+    /// stiffened to `grain_modulus_pa` and relaxed for [`RELAX_S`]. Equal
+    /// to it: one modulus throughout. Default [`DEPOSITION_MODULUS_PA`].
+    pub deposition_modulus_pa: f64,
 }
 
 impl ScenarioSpec {
@@ -185,6 +205,8 @@ impl ScenarioSpec {
             face_grain_radius_m: None,
             advance_m: PAPER_ADVANCE_M,
             advance_s: 0.05,
+            grain_modulus_pa: GRAIN_MODULUS_PA,
+            deposition_modulus_pa: DEPOSITION_MODULUS_PA,
         }
     }
 
@@ -424,19 +446,36 @@ impl ScenarioSpec {
             .copied()
     }
 
-    /// DEM time step (s): the throughput benchmark's 1.5e-5 s for 1 mm
-    /// grains of 2920 kg/m³, scaled as the contact time, ∝ r √ρ at equal
-    /// velocities and moduli, for the finest grains.
+    /// DEM time step of the advance and the expansion (s): the throughput
+    /// benchmark's 1.5e-5 s for 1 mm grains of 2920 kg/m³ and 1e7 Pa,
+    /// scaled as the Rayleigh time, ∝ r √(ρ/E), for the finest grains.
     pub fn dt_s(&self) -> f64 {
-        1.5e-5 * self.min_grain_radius_m() / 1e-3
-            * (self.grain_density_kg_m3 / GRAIN_DENSITY_KG_M3).sqrt()
+        self.dt_at_s(self.grain_modulus_pa)
     }
 
-    /// The grains' material: E = 1e7 Pa (soft, as the DEM benchmark's, for
-    /// a long time step), ν = 0.3, this case's grain density.
+    /// DEM time step while the bed settles (s), as [`ScenarioSpec::dt_s`]
+    /// for the deposition modulus.
+    pub fn settle_dt_s(&self) -> f64 {
+        self.dt_at_s(self.deposition_modulus_pa)
+    }
+
+    fn dt_at_s(&self, modulus_pa: f64) -> f64 {
+        1.5e-5 * self.min_grain_radius_m() / 1e-3
+            * (self.grain_density_kg_m3 / GRAIN_DENSITY_KG_M3).sqrt()
+            * (DEPOSITION_MODULUS_PA / modulus_pa).sqrt()
+    }
+
+    /// The grains' material during the advance and the expansion: E =
+    /// [`ScenarioSpec::grain_modulus_pa`], ν = 0.3, this case's grain
+    /// density.
     pub fn sand(&self) -> Material {
+        self.sand_at(self.grain_modulus_pa)
+    }
+
+    /// The grains' material at Young's modulus `modulus_pa` (Pa).
+    fn sand_at(&self, modulus_pa: f64) -> Material {
         Material {
-            youngs_modulus_pa: 1.0e7,
+            youngs_modulus_pa: modulus_pa,
             poisson_ratio: 0.3,
             density_kg_m3: self.grain_density_kg_m3,
         }
@@ -445,6 +484,12 @@ impl ScenarioSpec {
     fn validate(&self) -> Result<()> {
         let pos = |v: f64| v > 0.0 && v.is_finite();
         ensure!(pos(self.grain_radius_m), "grain radius must be positive");
+        ensure!(
+            pos(self.grain_modulus_pa) && pos(self.deposition_modulus_pa),
+            "grain modulus {} Pa and deposition modulus {} Pa must be positive",
+            self.grain_modulus_pa,
+            self.deposition_modulus_pa
+        );
         if let Some(rf) = self.face_grain_radius_m {
             ensure!(
                 pos(rf) && rf < self.grain_radius_m && rf >= 0.2 * self.grain_radius_m,
@@ -551,19 +596,15 @@ pub fn skin_material(law: &Yeoh) -> Material {
     }
 }
 
-/// The grains' contact law with inter-grain friction `friction` and the
-/// rolling resistance of `spec`.
+/// The grains' contact law while the bed settles (the deposition
+/// modulus) with inter-grain friction `friction` and the rolling
+/// resistance of `spec`.
 pub fn grain_contacts(spec: &ScenarioSpec, friction: f64) -> Result<ContactModel> {
-    let contacts = ContactSpec {
+    let laws = Laws::of(spec, spec.deposition_modulus_pa);
+    laws.grains(&ContactSpec {
         friction,
-        rolling_friction: spec.rolling_friction,
-        ..ContactSpec::default()
-    };
-    Ok(ContactModel::hertz_mindlin(
-        &spec.sand(),
-        &spec.sand(),
-        &contacts,
-    )?)
+        ..laws.rough
+    })
 }
 
 /// Wall indices in [`Params::walls`].
@@ -607,43 +648,113 @@ impl Bed {
     }
 }
 
+/// The grains of `spec` at Young's modulus `modulus_pa` (Pa): their
+/// material, contact settings and time step; one definition for the bed as
+/// built and as stiffened.
+struct Laws {
+    dt_s: f64,
+    mat: Material,
+    /// Grain–grain, grain–skin and grain–face: the sand's friction.
+    rough: ContactSpec,
+    /// Grain–wall, in [`wall`] order: smooth floor, back and far end, the
+    /// sides at the wall friction.
+    walls: [ContactSpec; 5],
+}
+
+impl Laws {
+    fn of(spec: &ScenarioSpec, modulus_pa: f64) -> Laws {
+        let rough = ContactSpec {
+            friction: spec.friction,
+            rolling_friction: spec.rolling_friction,
+            ..ContactSpec::default()
+        };
+        let smooth = ContactSpec {
+            friction: 0.0,
+            ..rough
+        };
+        let side = ContactSpec {
+            friction: spec.wall_friction,
+            ..rough
+        };
+        Laws {
+            dt_s: spec.dt_at_s(modulus_pa),
+            mat: spec.sand_at(modulus_pa),
+            rough,
+            walls: [smooth, side, side, smooth, smooth],
+        }
+    }
+
+    /// Grain–grain (and grain–face) contacts.
+    fn grains(&self, s: &ContactSpec) -> Result<ContactModel> {
+        Ok(ContactModel::hertz_mindlin(&self.mat, &self.mat, s)?)
+    }
+
+    /// Grain–skin contacts for the skin of `law`.
+    fn skin(&self, law: &Yeoh) -> Result<ContactModel> {
+        Ok(ContactModel::hertz_mindlin(
+            &self.mat,
+            &skin_material(law),
+            &self.rough,
+        )?)
+    }
+}
+
+impl Bed {
+    /// Gives the grains Young's modulus `modulus_pa` (Pa): every contact
+    /// law (grains, walls, skin, face) and the time step; the contact
+    /// histories (tangential displacements) are kept.
+    pub fn set_grain_modulus(&mut self, modulus_pa: f64) -> Result<()> {
+        ensure!(
+            modulus_pa > 0.0 && modulus_pa.is_finite(),
+            "grain modulus {modulus_pa} Pa must be positive"
+        );
+        let laws = Laws::of(&self.spec, modulus_pa);
+        ensure!(
+            self.params.walls.len() == laws.walls.len(),
+            "the bed has {} walls, not the scenario's {}",
+            self.params.walls.len(),
+            laws.walls.len()
+        );
+        self.params.dt_s = laws.dt_s;
+        self.params.pair_model = laws.grains(&laws.rough)?;
+        for (w, s) in self.params.walls.iter_mut().zip(&laws.walls) {
+            w.model = laws.grains(s)?;
+        }
+        self.coupling.model = laws.skin(&self.spec.skin_law())?;
+        self.coupling.dt_s = laws.dt_s;
+        if let Some(face) = &mut self.coupling.face {
+            face.model = laws.grains(&laws.rough)?;
+            face.dt_s = laws.dt_s;
+        }
+        Ok(())
+    }
+}
+
 /// Builds the bed of `spec`: the skin at rest holding its fluid volume,
 /// grains on a
 /// jittered lattice round it filled bottom-up, then the surcharge rows.
 pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     spec.validate()?;
     let r = spec.grain_radius_m;
-    let dt = spec.dt_s();
-    let mat = spec.sand();
-    let rough = ContactSpec {
-        friction: spec.friction,
-        rolling_friction: spec.rolling_friction,
-        ..ContactSpec::default()
-    };
-    let smooth = ContactSpec {
-        friction: 0.0,
-        ..rough
-    };
-    let side = ContactSpec {
-        friction: spec.wall_friction,
-        ..rough
-    };
-    let mut params = Params::new(&mat, &rough, dt)?;
+    // The bed is built for settling, at the deposition modulus.
+    let laws = Laws::of(spec, spec.deposition_modulus_pa);
+    let dt = laws.dt_s;
+    let mut params = Params::new(&laws.mat, &laws.rough, dt)?;
     params.gravity_m_s2 = Vector3::new(0.0, -GRAVITY_M_S2, 0.0);
     params.fluid_density_kg_m3 = spec.water_density_kg_m3;
     params.skin_m = 0.2 * spec.min_grain_radius_m();
     let (w, zl) = (spec.box_width_m, spec.slab_length_m());
     let planes = [
-        (Vector3::new(0.0, -spec.below_m, 0.0), Vector3::y(), &smooth),
-        (Vector3::new(-0.5 * w, 0.0, 0.0), Vector3::x(), &side),
-        (Vector3::new(0.5 * w, 0.0, 0.0), -Vector3::x(), &side),
-        (Vector3::zeros(), Vector3::z(), &smooth),
-        (Vector3::new(0.0, 0.0, zl), -Vector3::z(), &smooth),
+        (Vector3::new(0.0, -spec.below_m, 0.0), Vector3::y()),
+        (Vector3::new(-0.5 * w, 0.0, 0.0), Vector3::x()),
+        (Vector3::new(0.5 * w, 0.0, 0.0), -Vector3::x()),
+        (Vector3::zeros(), Vector3::z()),
+        (Vector3::new(0.0, 0.0, zl), -Vector3::z()),
     ];
-    for (point, normal, s) in planes {
+    for ((point, normal), s) in planes.into_iter().zip(&laws.walls) {
         params
             .walls
-            .push(Wall::plane(point, normal, &mat, &mat, s)?);
+            .push(Wall::plane(point, normal, &laws.mat, &laws.mat, s)?);
     }
 
     let mut skin = spec.skin(Ends::Head)?;
@@ -657,11 +768,10 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
         bulk_modulus_pa: FLUID_BULK_MODULUS_PA,
     });
     let zone_m = skin.spec.length_m;
-    let skin_model = ContactModel::hertz_mindlin(&mat, &skin_material(&spec.skin_law()), &rough)?;
-    let mut coupling = Coupling::new(skin, skin_model, dt)?;
+    let mut coupling = Coupling::new(skin, laws.skin(&spec.skin_law())?, dt)?;
     // The face spans the clamped end ring's outer radius.
     let face_radius = coupling.skin.spec.mid_radius_m + 0.5 * coupling.skin.spec.thickness_m;
-    let face_model = ContactModel::hertz_mindlin(&mat, &mat, &rough)?;
+    let face_model = laws.grains(&laws.rough)?;
     coupling.face = FrontFace::new(
         Vector3::new(0.0, 0.0, zone_m),
         Vector3::z(),
