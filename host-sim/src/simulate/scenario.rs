@@ -465,14 +465,8 @@ impl ScenarioSpec {
             * (DEPOSITION_MODULUS_PA / modulus_pa).sqrt()
     }
 
-    /// The grains' material during the advance and the expansion: E =
-    /// [`ScenarioSpec::grain_modulus_pa`], ν = 0.3, this case's grain
-    /// density.
-    pub fn sand(&self) -> Material {
-        self.sand_at(self.grain_modulus_pa)
-    }
-
-    /// The grains' material at Young's modulus `modulus_pa` (Pa).
+    /// The grains' material at Young's modulus `modulus_pa` (Pa): ν = 0.3,
+    /// this case's grain density.
     fn sand_at(&self, modulus_pa: f64) -> Material {
         Material {
             youngs_modulus_pa: modulus_pa,
