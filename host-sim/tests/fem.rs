@@ -1,9 +1,10 @@
-//! The FEM skin against the closed-form tube inflation, and the
-//! consistency of its internal forces with its strain energy.
+//! The FEM skin against the closed-form tube inflation (the membrane, and
+//! the shell with its bending), the closed-form edge bending of a clamped
+//! tube, and the consistency of its internal forces with its energy.
 
 use host_sim::fem::{Ends, Skin, SkinSpec, VolumeControl};
 use host_sim::skin::membrane::{self, Tube, TubeGeometry};
-use host_sim::skin::{default_skin, Yeoh};
+use host_sim::skin::{default_skin, StrainEnergy, Yeoh};
 use nalgebra::{Rotation3, Vector3};
 
 /// Wall of the thin reference tube (m): T/R ≈ 1e-5, so its thick-wall
@@ -30,10 +31,26 @@ fn thin_wall_reference_pa(law: Yeoh, spec: &SkinSpec, mid_diameter_m: f64) -> f6
     tube.pressure_kpa(d).unwrap() * 1e3 * (spec.thickness_m * 1e3) / THIN_WALL_MM
 }
 
+/// The paper's zone as a membrane (no bending, the default): what the
+/// closed-form membrane tube describes exactly.
+fn membrane_spec(around: usize, along: usize) -> SkinSpec {
+    let spec = SkinSpec::paper(around, along);
+    assert!(!spec.bending);
+    spec
+}
+
+/// The paper's zone as a shell (bending).
+fn shell_spec(around: usize, along: usize) -> SkinSpec {
+    SkinSpec {
+        bending: true,
+        ..SkinSpec::paper(around, along)
+    }
+}
+
 #[test]
 fn plane_strain_inflation_matches_the_closed_form_tube_within_2_percent() {
     let law = default_skin();
-    let spec = SkinSpec::paper(32, 6);
+    let spec = membrane_spec(32, 6);
     let mut skin = Skin::new(law, &spec, Ends::PlaneStrain).unwrap();
     // Pressures giving outer diameters from ~20 to 25 mm (thin-wall law).
     let mut last_d = 18.7e-3;
@@ -74,7 +91,7 @@ fn plane_strain_inflation_matches_the_closed_form_tube_within_2_percent() {
 /// `around` nodes round the circumference.
 fn pressure_error(around: usize) -> f64 {
     let law = default_skin();
-    let spec = SkinSpec::paper(around, 4);
+    let spec = membrane_spec(around, 4);
     let mut skin = Skin::new(law, &spec, Ends::PlaneStrain).unwrap();
     skin.pressure_pa = 550.0;
     skin.relax(1e-9 * 550.0 * spec.length_m * spec.mid_radius_m, 400_000)
@@ -131,9 +148,8 @@ fn injected_volume_gives_the_closed_form_pressure() {
     assert!(err.abs() < 0.02, "{err}");
 }
 
-fn perturbed_skin() -> Skin<Yeoh> {
-    let spec = SkinSpec::paper(12, 3);
-    let mut skin = Skin::new(default_skin(), &spec, Ends::Clamped).unwrap();
+fn perturbed_skin(spec: &SkinSpec, ends: Ends) -> Skin<Yeoh> {
+    let mut skin = Skin::new(default_skin(), spec, ends).unwrap();
     // A deterministic, non-symmetric finite deformation (stretch ~1.3 plus
     // ±0.3 mm wobble), so every term of the stress is active.
     for (a, x) in skin.position_m.iter_mut().enumerate() {
@@ -146,7 +162,18 @@ fn perturbed_skin() -> Skin<Yeoh> {
 
 #[test]
 fn internal_forces_are_the_gradient_of_the_strain_energy() {
-    let mut skin = perturbed_skin();
+    // The shell with clamped ends (mirror ghosts) and with free ends, and
+    // the membrane.
+    for (spec, ends) in [
+        (shell_spec(12, 3), Ends::Clamped),
+        (shell_spec(12, 4), Ends::PlaneStrain),
+        (membrane_spec(12, 3), Ends::Clamped),
+    ] {
+        forces_match_the_energy_gradient(perturbed_skin(&spec, ends));
+    }
+}
+
+fn forces_match_the_energy_gradient(mut skin: Skin<Yeoh>) {
     let mut f = vec![Vector3::zeros(); skin.node_count()];
     skin.internal_forces_n(&mut f).unwrap();
     let scale = f.iter().map(|v| v.norm()).fold(0.0, f64::max);
@@ -170,7 +197,21 @@ fn internal_forces_are_the_gradient_of_the_strain_energy() {
 
 #[test]
 fn rigid_motions_leave_no_energy_or_force() {
-    let mut skin = perturbed_skin();
+    // Free ends: clamped ones are tied to the body's frame. The shell and
+    // the membrane.
+    for spec in [shell_spec(12, 3), membrane_spec(12, 3)] {
+        rigid_motion_leaves_no_energy_or_force(perturbed_skin(&spec, Ends::PlaneStrain));
+    }
+    // At rest: no energy, no force, no stress.
+    let rest = Skin::new(default_skin(), &shell_spec(12, 3), Ends::Clamped).unwrap();
+    assert!(rest.strain_energy_j().unwrap().abs() < 1e-15);
+    let mut f = vec![Vector3::zeros(); rest.node_count()];
+    rest.internal_forces_n(&mut f).unwrap();
+    assert!(f.iter().all(|f| f.norm() < 1e-15));
+    assert!(rest.von_mises_pa().unwrap().iter().all(|s| s.abs() < 1e-9));
+}
+
+fn rigid_motion_leaves_no_energy_or_force(mut skin: Skin<Yeoh>) {
     let e0 = skin.strain_energy_j().unwrap();
     let mut f0 = vec![Vector3::zeros(); skin.node_count()];
     skin.internal_forces_n(&mut f0).unwrap();
@@ -189,10 +230,6 @@ fn rigid_motions_leave_no_energy_or_force() {
     }
     let total: Vector3<f64> = f1.iter().sum();
     assert!(total.norm() < 1e-9 * f1.iter().map(|v| v.norm()).sum::<f64>());
-    // At rest: no energy, no force, no stress.
-    let rest = Skin::new(default_skin(), &SkinSpec::paper(12, 3), Ends::Clamped).unwrap();
-    assert!(rest.strain_energy_j().unwrap().abs() < 1e-15);
-    assert!(rest.von_mises_pa().unwrap().iter().all(|s| s.abs() < 1e-9));
 }
 
 #[test]
@@ -226,7 +263,7 @@ fn the_vtk_file_holds_the_mesh_and_the_element_stresses() {
 #[test]
 fn closed_end_inflation_matches_the_closed_form_tube_within_2_percent() {
     let law = default_skin();
-    let spec = SkinSpec::paper(32, 6);
+    let spec = membrane_spec(32, 6);
     let mut skin = Skin::new(law, &spec, Ends::Closed).unwrap();
     let mid_mm = 2.0 * spec.mid_radius_m * 1e3;
     let thin = Tube::new(
@@ -306,4 +343,183 @@ fn a_free_head_settles_where_the_clamped_skin_carries_its_load() {
         (carried - load_n).abs() < 0.01 * load_n.abs(),
         "{carried} vs {load_n}"
     );
+}
+
+#[test]
+fn the_bending_forces_are_the_gradient_of_the_bending_energy() {
+    // The bending term alone, so its forces are not lost beside the
+    // membrane's: clamped (mirror ghosts) and free ends.
+    // Graded rows too: the second differences on unequal rows.
+    let graded = SkinSpec {
+        end_row_m: Some(1e-3),
+        ..shell_spec(12, 4)
+    };
+    for (spec, ends) in [
+        (shell_spec(12, 4), Ends::Clamped),
+        (shell_spec(12, 4), Ends::PlaneStrain),
+        (graded, Ends::Clamped),
+        (graded, Ends::PlaneStrain),
+    ] {
+        let mut skin = perturbed_skin(&spec, ends);
+        println!("{} rows", skin.mesh.along);
+        let bending = skin.bending.clone().unwrap();
+        let mut f = vec![Vector3::zeros(); skin.node_count()];
+        bending.add_internal_forces_n(&skin.position_m, &mut f);
+        let scale = f.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        assert!(scale > 0.0);
+        let h = 1e-8;
+        let mut worst = 0.0f64;
+        for (a, fa) in f.iter().enumerate() {
+            for k in 0..3 {
+                let x0 = skin.position_m[a][k];
+                skin.position_m[a][k] = x0 + h;
+                let ep = bending.energy_j(&skin.position_m);
+                skin.position_m[a][k] = x0 - h;
+                let em = bending.energy_j(&skin.position_m);
+                skin.position_m[a][k] = x0;
+                worst = worst.max(((ep - em) / (2.0 * h) - fa[k]).abs() / scale);
+            }
+        }
+        println!("{ends:?}: largest |f − dW_b/dx| / max|f| = {worst:.2e}");
+        assert!(worst < 1e-6, "{ends:?}: {worst}");
+    }
+}
+
+#[test]
+fn a_clamped_tube_bends_at_its_ends_as_the_linear_shell_theory_says() {
+    // A tube long against the bending length 1/β (≈ 3.1 mm here), clamped
+    // at both ends, under a pressure small enough for linear theory
+    // (w/R ≈ 1e-3). At a clamped end w = w′ = 0 and
+    // w(z) = w∞·[1 − e^(−βz)(cos βz + sin βz)], β⁴ = 3(1 − ν²)/(R²T²)
+    // (Timoshenko & Woinowsky-Krieger, §15.2): the profile peaks at βz = π
+    // at w∞·(1 + e^(−π)), and the curvature at the end is w″(0) = 2β²·w∞,
+    // so the bending stress there is √(3(1 − ν²))·pR/T, 1.5× the hoop
+    // stress. Far from the ends, w∞ = R²(p − νN_z/R)/(ET); with the length
+    // held, N_z = ν·mean(N_θ) = νpR·(1 − 2/(βL)) (each end zone lacks
+    // w∞/β of hoop strain).
+    let law = default_skin();
+    let (along, length_m) = (96, 48e-3);
+    let spec = SkinSpec {
+        length_m,
+        ..shell_spec(32, along)
+    };
+    let mut skin = Skin::new(law, &spec, Ends::Clamped).unwrap();
+    let (r, t, nu) = (spec.mid_radius_m, spec.thickness_m, 0.5);
+    let e = 3.0 * law.shear_modulus_kpa() * 1e3;
+    let p = 1e-3 * e * t / (r * (1.0 - nu * nu));
+    let beta = (3.0 * (1.0 - nu * nu) / (r * r * t * t)).powf(0.25);
+    let w_inf = p * r * r * (1.0 - nu * nu * (1.0 - 2.0 / (beta * length_m))) / (e * t);
+    skin.pressure_pa = p;
+    let h = length_m / along as f64;
+    let relaxed = skin.relax(1e-8 * p * r * h, 2_000_000).unwrap();
+    // The polygon's nodes sit on the circle: radial displacement of ring j.
+    let w = |j: usize| skin.ring_radius_m(j) - r;
+    let mid = w(skin.mesh.middle_ring());
+    let j_peak = (std::f64::consts::PI / beta / h).round() as usize;
+    let x = beta * h * j_peak as f64;
+    let peak_shape = 1.0 - (-x).exp() * (x.cos() + x.sin());
+    let bending = skin.bending.as_ref().unwrap();
+    let nodes = bending.node_bending(&skin.position_m);
+    let ring0 = skin.mesh.ring(0);
+    let n0 = ring0.len() as f64;
+    let curvature_at_end = ring0.map(|a| nodes[a].along_per_m).sum::<f64>() / n0;
+    // The bending stress at the end, E/(1 − ν²)·T/2·Δb_z (Δb_θ = 0 there),
+    // against 6M/T², M = D·2β²w, for the far field w the tube reached.
+    let stress = bending.plate_modulus_pa * 0.5 * t * curvature_at_end;
+    let want_stress = e / (1.0 - nu * nu) * t * beta * beta * mid;
+    println!(
+        "clamped tube ({} steps): w mid / w∞ = {:.4}, w(βz = {x:.2}) / (w mid·{peak_shape:.4}) = {:.4}, end curvature / 2β²w_mid = {:.4}, bending stress {stress:.3} / {want_stress:.3} Pa",
+        relaxed.steps,
+        mid / w_inf,
+        w(j_peak) / (mid * peak_shape),
+        curvature_at_end / (2.0 * beta * beta * mid),
+    );
+    assert!(
+        (mid / w_inf - 1.0).abs() < 0.02,
+        "far field {}",
+        mid / w_inf
+    );
+    assert!((w(j_peak) / (mid * peak_shape) - 1.0).abs() < 0.01);
+    assert!((curvature_at_end / (2.0 * beta * beta * mid) - 1.0).abs() < 0.02);
+    assert!((stress / want_stress - 1.0).abs() < 0.02);
+    // The membrane has no such boundary layer: it leaves the clamp at an
+    // angle (a kink), most of the far field within the first row.
+    let mut membrane = Skin::new(
+        law,
+        &SkinSpec {
+            bending: false,
+            ..spec
+        },
+        Ends::Clamped,
+    )
+    .unwrap();
+    membrane.pressure_pa = p;
+    membrane.relax(1e-8 * p * r * h, 2_000_000).unwrap();
+    let first_row = (membrane.ring_radius_m(1) - r) / (membrane.ring_radius_m(along / 2) - r);
+    println!(
+        "first row / far field: membrane {first_row:.3}, shell {:.3}",
+        w(1) / mid
+    );
+    assert!(first_row > 0.5, "{first_row}");
+    assert!(w(1) / mid < 0.1, "{}", w(1) / mid);
+}
+
+#[test]
+fn with_its_bending_the_shell_still_inflates_as_the_closed_form_tube_within_2_percent() {
+    // Free (plane-strain) ends: the bending adds only the wall's
+    // through-thickness effect, ≈ T²/12R² relative, and the free ends' curl.
+    let law = default_skin();
+    let spec = shell_spec(32, 6);
+    let mut skin = Skin::new(law, &spec, Ends::PlaneStrain).unwrap();
+    for p in [300.0, 550.0] {
+        skin.pressure_pa = p;
+        skin.relax(1e-9 * p * spec.length_m * spec.mid_radius_m, 400_000)
+            .unwrap();
+        let mid = 2.0 * skin.ring_radius_m(skin.mesh.middle_ring());
+        let want = thin_wall_reference_pa(law, &spec, mid);
+        let err = (p - want) / want;
+        println!(
+            "shell, plane strain: p = {p} Pa vs closed form {want:.2} Pa ({:+.3} %)",
+            100.0 * err
+        );
+        assert!(err.abs() < 0.02, "{err}");
+    }
+}
+
+#[test]
+fn graded_rows_are_fine_at_the_ends_and_symmetric() {
+    use host_sim::fem::mesh::TubeMesh;
+    let m = TubeMesh::graded(8.475e-3, 20e-3, 24, 0.35e-3, 20e-3 / 13.0).unwrap();
+    let rows: Vec<f64> = (0..m.along).map(|j| m.row_m(j)).collect();
+    println!(
+        "{} rows: {:?}",
+        m.along,
+        rows.iter()
+            .map(|h| (h * 1e6).round() / 1e3)
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(m.along % 2, 0);
+    assert!((m.ring_z_m[m.middle_ring()] - 10e-3).abs() < 1e-12);
+    assert_eq!(m.ring_z_m[m.along], 20e-3);
+    for j in 0..m.along {
+        assert!((rows[j] - rows[m.along - 1 - j]).abs() < 1e-12, "symmetric");
+    }
+    // The fit scales the nominal rows by at most the last row's share.
+    assert!((rows[0] / 0.35e-3 - 1.0).abs() < 0.15, "{}", rows[0]);
+    for w in rows[..m.along / 2].windows(2) {
+        let growth = w[1] / w[0];
+        assert!(
+            growth > 0.999 && growth < TubeMesh::GRADING_RATIO + 1e-9,
+            "{growth}"
+        );
+    }
+    assert!(rows.iter().all(|&h| h <= 20e-3 / 13.0 * 1.15));
+    // The nodes sit on their rings.
+    for j in 0..=m.along {
+        for a in m.ring(j) {
+            assert_eq!(m.rest_m[a].z, m.ring_z_m[j]);
+        }
+    }
+    assert!(TubeMesh::graded(8.475e-3, 20e-3, 24, 0.0, 1e-3).is_err());
+    assert!(TubeMesh::graded(8.475e-3, 20e-3, 24, 2e-3, 1e-3).is_err());
 }

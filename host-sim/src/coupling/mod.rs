@@ -64,6 +64,9 @@ pub struct Sample {
     pub face_pressure_pa: Option<f64>,
     /// Largest element von Mises stress in the skin (Pa).
     pub max_von_mises_pa: f64,
+    /// Largest surface strain of the skin's bending (a shell skin;
+    /// `None` for a membrane), see [`crate::fem::bending::Bending::max_surface_strain`].
+    pub max_bending_strain: Option<f64>,
     /// Particles touching the skin.
     pub contacts: usize,
     /// Head receding distance D_r (m), positive backwards; 0 when the
@@ -137,6 +140,11 @@ impl<S: StrainEnergy> Coupling<S> {
             sand_pressure_pa: self.last.normal_force_n / self.skin.outer_area_m2()?,
             face_pressure_pa: self.face.as_ref().map(FrontFace::pressure_pa),
             max_von_mises_pa,
+            max_bending_strain: self
+                .skin
+                .bending
+                .as_ref()
+                .map(|b| b.max_surface_strain(&self.skin.position_m)),
             contacts: self.last.contacts,
             head_receding_m: self.skin.head.map_or(0.0, |h| h.receding_m()),
         })

@@ -20,6 +20,9 @@ pub struct TubeMesh {
     pub radius_m: f64,
     /// Rest length (m).
     pub length_m: f64,
+    /// Rest axial position of each ring (m), ascending from 0 to
+    /// `length_m`.
+    pub ring_z_m: Vec<f64>,
 }
 
 impl TubeMesh {
@@ -33,6 +36,74 @@ impl TubeMesh {
         around: usize,
         along: usize,
     ) -> Result<TubeMesh, FemError> {
+        if along < 1 {
+            return Err(FemError::param("along", along as f64));
+        }
+        let rings = (0..=along)
+            .map(|j| length_m * j as f64 / along as f64)
+            .collect();
+        Self::with_rings(radius_m, length_m, around, rings)
+    }
+
+    /// Growth of the row length from one row to the next in
+    /// [`TubeMesh::graded`].
+    pub const GRADING_RATIO: f64 = 1.25;
+
+    /// A tube like [`TubeMesh::tube`] whose rows are `end_row_m` long at
+    /// both ends and grow by [`TubeMesh::GRADING_RATIO`] per row towards
+    /// the middle, up to `max_row_m` (m): fine where the skin bends at the
+    /// clamped ends, coarse where it does not. Symmetric about mid-length,
+    /// with a ring there.
+    pub fn graded(
+        radius_m: f64,
+        length_m: f64,
+        around: usize,
+        end_row_m: f64,
+        max_row_m: f64,
+    ) -> Result<TubeMesh, FemError> {
+        if !(end_row_m > 0.0 && end_row_m.is_finite()) {
+            return Err(FemError::param("end_row_m", end_row_m));
+        }
+        if !(max_row_m >= end_row_m && max_row_m.is_finite()) {
+            return Err(FemError::param("max_row_m", max_row_m));
+        }
+        if !(length_m > 0.0 && length_m.is_finite()) {
+            return Err(FemError::param("length_m", length_m));
+        }
+        // Rows of the half from an end to the middle, then scaled to fit.
+        let half = 0.5 * length_m;
+        let mut rows = Vec::new();
+        let (mut h, mut sum) = (end_row_m, 0.0);
+        while sum + 0.5 * h < half {
+            rows.push(h);
+            sum += h;
+            h = (h * Self::GRADING_RATIO).min(max_row_m);
+        }
+        if rows.is_empty() {
+            rows.push(half);
+            sum = half;
+        }
+        let scale = half / sum;
+        let mut rings = vec![0.0];
+        for h in rows.iter().chain(rows.iter().rev()) {
+            let z = rings.last().copied().unwrap_or(0.0) + h * scale;
+            rings.push(z);
+        }
+        // The last ring exactly at the end.
+        if let Some(z) = rings.last_mut() {
+            *z = length_m;
+        }
+        Self::with_rings(radius_m, length_m, around, rings)
+    }
+
+    /// A tube with rings at rest positions `ring_z_m` (m), ascending from
+    /// 0 to `length_m`.
+    pub fn with_rings(
+        radius_m: f64,
+        length_m: f64,
+        around: usize,
+        ring_z_m: Vec<f64>,
+    ) -> Result<TubeMesh, FemError> {
         if !(radius_m > 0.0 && radius_m.is_finite()) {
             return Err(FemError::param("radius_m", radius_m));
         }
@@ -42,12 +113,19 @@ impl TubeMesh {
         if around < 3 {
             return Err(FemError::param("around", around as f64));
         }
+        let along = ring_z_m.len().saturating_sub(1);
         if along < 1 {
             return Err(FemError::param("along", along as f64));
         }
+        // Strictly ascending and finite (a NaN fails the comparison).
+        if let Some(w) = ring_z_m
+            .windows(2)
+            .find(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        {
+            return Err(FemError::param("ring_z_m", w[1]));
+        }
         let mut rest_m = Vec::with_capacity(around * (along + 1));
-        for j in 0..=along {
-            let z = length_m * j as f64 / along as f64;
+        for &z in &ring_z_m {
             for i in 0..around {
                 let t = std::f64::consts::TAU * i as f64 / around as f64;
                 rest_m.push(Vector3::new(radius_m * t.cos(), radius_m * t.sin(), z));
@@ -74,7 +152,13 @@ impl TubeMesh {
             along,
             radius_m,
             length_m,
+            ring_z_m,
         })
+    }
+
+    /// Rest length of row j, between rings j and j + 1 (m).
+    pub fn row_m(&self, j: usize) -> f64 {
+        self.ring_z_m[j + 1] - self.ring_z_m[j]
     }
 
     /// Node indices of ring `j` (0 = the z = 0 end).

@@ -12,6 +12,13 @@
 //! injected volume ([`VolumeControl`]); [`vtk`] writes the state for
 //! ParaView.
 //!
+//! With [`SkinSpec::bending`] the skin is a shell: [`bending`] adds the
+//! wall's resistance to bending (rotation-free Kirchhoff–Love, clamped
+//! ends holding the slope), and the element stresses become those of its
+//! outer and inner surfaces. [`SkinSpec::end_row_m`] grades the rows
+//! ([`mesh::TubeMesh::graded`]) so the bending layer at the clamped ends
+//! is resolved.
+//!
 //! SI units throughout (m, kg, s, N, Pa), like the DEM it is coupled to.
 //!
 //! ```
@@ -22,14 +29,16 @@
 //! assert!(skin.outer_diameter_at_mid_length_m() > 18.7e-3);
 //! ```
 
+pub mod bending;
 pub mod element;
 pub mod mesh;
 pub mod vtk;
 
-use nalgebra::{Matrix2, Vector3};
+use nalgebra::{Matrix2, Matrix3, Vector3};
 
 use crate::skin::membrane::TubeGeometry;
 use crate::skin::StrainEnergy;
+use bending::{von_mises_3d_pa, Bending};
 use element::{internal_forces_n, Strain, Triangle};
 use mesh::TubeMesh;
 
@@ -84,6 +93,14 @@ pub struct SkinSpec {
     pub around: usize,
     /// Element rows along the axis.
     pub along: usize,
+    /// Whether the skin resists bending ([`bending`]): a Kirchhoff–Love
+    /// shell rather than a membrane (the default of [`SkinSpec::from_tube`]).
+    pub bending: bool,
+    /// Graded rows: `Some(h)` makes the rows h long (m) at both ends,
+    /// growing towards the middle up to `length_m / along`
+    /// ([`TubeMesh::graded`]), to resolve the bending layer at clamped
+    /// ends; `None`: `along` rows of equal length.
+    pub end_row_m: Option<f64>,
 }
 
 impl SkinSpec {
@@ -100,6 +117,8 @@ impl SkinSpec {
             density_kg_m3: Self::TISSUE_DENSITY_KG_M3,
             around,
             along,
+            bending: false,
+            end_row_m: None,
         }
     }
 
@@ -203,6 +222,8 @@ pub struct Skin<S: StrainEnergy> {
     pub spec: SkinSpec,
     /// The mid-surface mesh.
     pub mesh: TubeMesh,
+    /// The bending term (`None`: a membrane, [`SkinSpec::bending`] off).
+    pub bending: Option<Bending>,
     /// Element reference data, one per `mesh.triangles` entry.
     pub elements: Vec<Triangle>,
     /// Current node positions (m).
@@ -249,7 +270,16 @@ impl<S: StrainEnergy> Skin<S> {
         if !(spec.density_kg_m3 > 0.0 && spec.density_kg_m3.is_finite()) {
             return Err(FemError::param("density_kg_m3", spec.density_kg_m3));
         }
-        let mesh = TubeMesh::tube(spec.mid_radius_m, spec.length_m, spec.around, spec.along)?;
+        let mesh = match spec.end_row_m {
+            None => TubeMesh::tube(spec.mid_radius_m, spec.length_m, spec.around, spec.along)?,
+            Some(end) => TubeMesh::graded(
+                spec.mid_radius_m,
+                spec.length_m,
+                spec.around,
+                end,
+                spec.length_m / spec.along.max(1) as f64,
+            )?,
+        };
         let n = mesh.rest_m.len();
         let mut elements = Vec::with_capacity(mesh.triangles.len());
         let mut mass_kg = vec![0.0; n];
@@ -272,9 +302,19 @@ impl<S: StrainEnergy> Skin<S> {
                 };
             }
         }
+        let clamped = matches!(ends, Ends::Clamped | Ends::Head);
+        let bending = spec.bending.then(|| {
+            Bending::new(
+                &mesh,
+                spec.thickness_m,
+                law.shear_modulus_kpa() * element::PA_PER_KPA,
+                clamped,
+            )
+        });
         Ok(Skin {
             law,
             spec: *spec,
+            bending,
             position_m: mesh.rest_m.clone(),
             velocity_m_s: vec![Vector3::zeros(); n],
             external_force_n: vec![Vector3::zeros(); n],
@@ -315,14 +355,19 @@ impl<S: StrainEnergy> Skin<S> {
 
     /// Total strain energy (J) at the current positions.
     pub fn strain_energy_j(&self) -> Result<f64, FemError> {
-        (0..self.elements.len())
+        let membrane: f64 = (0..self.elements.len())
             .map(|k| {
                 let e = self.strain(k)?;
                 Ok(e.energy_density_pa(&self.law)
                     * self.elements[k].area_m2
                     * self.spec.thickness_m)
             })
-            .sum()
+            .sum::<Result<f64, FemError>>()?;
+        let bending = self
+            .bending
+            .as_ref()
+            .map_or(0.0, |b| b.energy_j(&self.position_m));
+        Ok(membrane + bending)
     }
 
     /// Internal nodal forces ∂E/∂x (N) at the current positions into `out`.
@@ -334,6 +379,9 @@ impl<S: StrainEnergy> Skin<S> {
             for (a, fa) in tri.nodes.iter().zip(f) {
                 out[*a] += fa;
             }
+        }
+        if let Some(b) = &self.bending {
+            b.add_internal_forces_n(&self.position_m, out);
         }
         Ok(())
     }
@@ -448,7 +496,14 @@ impl<S: StrainEnergy> Skin<S> {
             let c2 = e.tangent_modulus_bound_pa(&self.law) / self.spec.density_kg_m3;
             dt = dt.min(tri.min_altitude_m / c2.sqrt());
         }
-        Ok(0.5 * dt)
+        let dt = 0.5 * dt;
+        let Some(b) = &self.bending else {
+            return Ok(dt);
+        };
+        // The bending's highest mode, with the same safety factor (½ of
+        // the 2/ω limit).
+        let w2 = b.max_frequency_squared(self.spec.density_kg_m3 * self.spec.thickness_m);
+        Ok(1.0 / (dt.powi(-2) + w2).sqrt())
     }
 
     /// Advances by `dt_s` (s) with central differences: with forces at the
@@ -581,12 +636,38 @@ impl<S: StrainEnergy> Skin<S> {
         2.0 * self.ring_radius_m(j) + t
     }
 
-    /// von Mises stress of each element (Pa), plane stress.
+    /// von Mises stress of each element (Pa), plane stress: of the
+    /// membrane stress, or with bending the largest over its nodes and
+    /// the two surfaces of the element's membrane stress ± that node's
+    /// bending stress (the bending field is nodal: at a clamped end it
+    /// peaks on the end ring, which an element mean would smear).
     pub fn von_mises_pa(&self) -> Result<Vec<f64>, FemError> {
+        let nodes = self
+            .bending
+            .as_ref()
+            .map(|b| b.node_bending(&self.position_m));
         (0..self.elements.len())
             .map(|k| {
                 let e = self.strain(k)?;
-                Ok(e.von_mises_pa(&self.stress(&e)))
+                let s = self.stress(&e);
+                let (Some(b), Some(nodes)) = (&self.bending, &nodes) else {
+                    return Ok(e.von_mises_pa(&s));
+                };
+                // Cauchy stress F·S·Fᵀ (J = 1), in space.
+                let sigma: Matrix3<f64> = e.deformation * s * e.deformation.transpose();
+                let tri = &self.elements[k];
+                let [p, q, r] = tri.nodes.map(|a| self.position_m[a]);
+                let normal = (q - p).cross(&(r - p)).normalize();
+                let around = Vector3::z().cross(&normal).normalize();
+                let along = normal.cross(&around);
+                Ok(tri
+                    .nodes
+                    .iter()
+                    .map(|&a| {
+                        let outer = b.outer_surface_stress_pa(&nodes[a], &along, &around);
+                        von_mises_3d_pa(&(sigma + outer)).max(von_mises_3d_pa(&(sigma - outer)))
+                    })
+                    .fold(0.0, f64::max))
             })
             .collect()
     }

@@ -75,6 +75,10 @@ impl Report {
             sand_pressure_pa: mean(&|s| s.sand_pressure_pa),
             face_pressure_pa: mean(&|s| s.face_pressure_pa.unwrap_or(f64::NAN)),
             max_von_mises_pa: tail.iter().map(|s| s.max_von_mises_pa).fold(0.0, f64::max),
+            max_bending_strain: tail
+                .iter()
+                .filter_map(|s| s.max_bending_strain)
+                .reduce(f64::max),
             head_receding_m: mean(&|s| s.head_receding_m),
             sand_share_pa: mean(&|s| self.sand_share_pa(s).unwrap_or(f64::NAN)),
         })
@@ -130,12 +134,17 @@ impl Report {
         let st = &self.settled;
         let _ = writeln!(
             s,
-            "simulate ({}): depth {:.0} mm, zone {} → {:.2} mm over {} mm, grain radius {:.2} mm{}, grain modulus {} MPa (settled at {} MPa), {} slab + {} surcharge grains, surcharge {:.0} Pa, dt {:.2e} s",
+            "simulate ({}): depth {:.0} mm, zone {} → {:.2} mm over {} mm ({}), grain radius {:.2} mm{}, grain modulus {} MPa (settled at {} MPa), {} slab + {} surcharge grains, surcharge {:.0} Pa, dt {:.2e} s",
             self.spec.setup,
             self.spec.depth_m * 1e3,
             self.spec.tube.outer_diameter_mm,
             self.spec.final_diameter_m * 1e3,
             self.spec.tube.length_mm,
+            if self.spec.skin_bending {
+                "skin: shell"
+            } else {
+                "skin: membrane"
+            },
             self.spec.grain_radius_m * 1e3,
             self.spec
                 .face_grain_radius_m
@@ -190,6 +199,17 @@ impl Report {
                 m.head_receding_m * 1e3,
                 m.max_von_mises_pa * 1e-6,
             );
+            if let Some(e) = m.max_bending_strain {
+                let _ = writeln!(
+                    s,
+                    "skin as a shell: largest surface bending strain {e:.2}{}",
+                    if e > BENDING_STRAIN_LIMIT {
+                        " (over 0.3: the skin folds tighter than linear thin-shell bending describes; its stress peak is an extrapolation)"
+                    } else {
+                        ""
+                    }
+                );
+            }
         }
         if let Some(b) = self.spec.balloon_point() {
             let _ = writeln!(
@@ -209,6 +229,10 @@ impl Report {
     }
 }
 
+/// Surface bending strain beyond which the shell's linear bending is
+/// flagged in the summary.
+pub const BENDING_STRAIN_LIMIT: f64 = 0.3;
+
 /// Width of the diameter window the final means are taken over (m).
 pub const FINAL_WINDOW_M: f64 = 0.3e-3;
 
@@ -225,6 +249,8 @@ pub struct FinalMeans {
     pub face_pressure_pa: f64,
     /// Largest skin von Mises stress in the window (Pa).
     pub max_von_mises_pa: f64,
+    /// Largest surface bending strain in the window (a shell skin).
+    pub max_bending_strain: Option<f64>,
     /// Head receding distance D_r (m).
     pub head_receding_m: f64,
     /// The sand's share of the internal pressure Δp_i = p_i − p_free(D)

@@ -19,10 +19,12 @@ use crate::sand::regenerate::bin_samples_indexed;
 use crate::sand::{BalloonPoint, BALLOON_FINAL_DIAMETER_MM};
 
 /// The samples as CSV: time, D, p_i, p_e, p_h, max von Mises, contacts,
-/// head receding distance D_r, the sand's share of p_i.
+/// head receding distance D_r, the sand's share of p_i; with a shell skin
+/// also its largest surface bending strain.
 pub fn samples_csv(report: &Report) -> Result<Vec<u8>> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record([
+    let shell = report.spec.skin_bending;
+    let mut header = vec![
         "time_s",
         "diameter_mm",
         "internal_pressure_kpa",
@@ -32,9 +34,13 @@ pub fn samples_csv(report: &Report) -> Result<Vec<u8>> {
         "skin_contacts",
         "head_receding_mm",
         "sand_share_kpa",
-    ])?;
+    ];
+    if shell {
+        header.push("max_bending_strain");
+    }
+    w.write_record(&header)?;
     for s in &report.samples {
-        w.write_record([
+        let mut row = vec![
             format!("{:.6}", s.time_s),
             format!("{:.4}", s.outer_diameter_m * 1e3),
             format!("{:.5}", s.internal_pressure_pa * 1e-3),
@@ -44,7 +50,11 @@ pub fn samples_csv(report: &Report) -> Result<Vec<u8>> {
             s.contacts.to_string(),
             format!("{:.4}", s.head_receding_m * 1e3),
             format!("{:.5}", report.sand_share_pa(s).unwrap_or(f64::NAN) * 1e-3),
-        ])?;
+        ];
+        if shell {
+            row.push(format!("{:.4}", s.max_bending_strain.unwrap_or(f64::NAN)));
+        }
+        w.write_record(&row)?;
     }
     w.into_inner().map_err(|e| anyhow!("CSV buffer: {e}"))
 }
