@@ -2,9 +2,10 @@
 //! summary line out (for sweeps): `cargo run --profile sim --example
 //! calibrate -- DEPTH_MM RADIUS_MM ROLLING DEPOSITION [quick|full] [SEED] [ABOVE_MM]
 //! [WALL_MU] [SKIN_SCALE] [AHEAD_MM] [FACE_RADIUS_MM] [ADVANCE_MM] [EXPANSION_S]
-//! [GRAIN_MODULUS_PA] [DEPOSITION_MODULUS_PA] [SHELL]`
+//! [GRAIN_MODULUS_PA] [DEPOSITION_MODULUS_PA] [SHELL] [BELOW_MM] [BOX_WIDTH_MM]`
 //! (face radius 0: one grain size; shell 1: the skin as a shell,
-//! `ScenarioSpec::with_shell`, else the membrane).
+//! `ScenarioSpec::with_shell`, else the membrane; below: the floor under
+//! the axis).
 
 use anyhow::{Context, Result};
 use host_sim::simulate::{simulate, Options, ScenarioSpec};
@@ -38,6 +39,9 @@ fn main() -> Result<()> {
     if num(15, 0.0)? != 0.0 {
         spec = spec.with_shell();
     }
+    spec.below_m = num(16, spec.below_m * 1e3)? * 1e-3;
+    spec.box_width_m = num(17, spec.box_width_m * 1e3)? * 1e-3;
+    spec.settle_s = ScenarioSpec::column_settle_s(spec.below_m + spec.above_m);
     let above = num(6, 0.0)? * 1e-3;
     if above > 0.0 {
         spec = spec.with_surcharge(above, 2);

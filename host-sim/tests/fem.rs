@@ -523,3 +523,41 @@ fn graded_rows_are_fine_at_the_ends_and_symmetric() {
     assert!(TubeMesh::graded(8.475e-3, 20e-3, 24, 0.0, 1e-3).is_err());
     assert!(TubeMesh::graded(8.475e-3, 20e-3, 24, 2e-3, 1e-3).is_err());
 }
+
+#[test]
+fn the_calipers_at_mid_length_tell_a_round_zone_from_a_lobed_one() {
+    let spec = SkinSpec::paper(24, 6);
+    let mut skin = Skin::new(default_skin(), &spec, Ends::Clamped).unwrap();
+    skin.pressure_pa = 600.0;
+    skin.relax(1e-9, 400_000).unwrap();
+    let (lo, hi) = skin.calipers_at_mid_length_m();
+    println!(
+        "D {:.3} mm, calipers {:.4}–{:.4} mm",
+        skin.outer_diameter_at_mid_length_m() * 1e3,
+        lo * 1e3,
+        hi * 1e3
+    );
+    let d = skin.outer_diameter_at_mid_length_m();
+    // Round up to the mesh's own anisotropy (alternating diagonals): 0.9 %.
+    assert!(hi - lo < 0.01 * d, "round: {lo} {hi}");
+    assert!(lo <= d && d <= hi);
+    // Push the middle ring's top node 3 mm out: one caliper grows by 3 mm.
+    let j = skin.mesh.middle_ring();
+    let top = skin.mesh.ring(j).start + 6; // θ = 90°
+    let r = skin.position_m[top].xy().norm();
+    skin.position_m[top].y *= (r + 3e-3) / r;
+    skin.position_m[top].x *= (r + 3e-3) / r;
+    // The caliper through the pushed node, before the push: its own
+    // radius was r, its opposite's is unchanged.
+    let ring = skin.mesh.ring(j);
+    let opposite = ring.start + (6 + ring.len() / 2) % ring.len();
+    let before = r + skin.position_m[opposite].xy().norm();
+    let (_, hi2) = skin.calipers_at_mid_length_m();
+    let t = skin.ring_thickness_m(j).unwrap();
+    assert!(
+        (hi2 - (before + 3e-3 + t)).abs() < 1e-12,
+        "{hi2} vs {}",
+        before + 3e-3 + t
+    );
+    assert!(hi2 > hi + 2.5e-3);
+}

@@ -75,8 +75,13 @@ fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone(
                 .lines()
                 .next()
                 .unwrap()
-                .ends_with(",head_receding_mm,sand_share_kpa")
+                .ends_with(",head_receding_mm,sand_share_kpa,min_caliper_mm,max_caliper_mm")
     );
+    // The calipers bracket D (its ring's mean).
+    for s in &report.samples {
+        let (lo, hi) = s.calipers_m;
+        assert!(lo <= s.outer_diameter_m + 1e-12 && s.outer_diameter_m <= hi + 1e-12);
+    }
     // The sand's share of p_i: positive, less than p_i; the skin's own
     // pressure at 25 mm is the rest.
     let m = report.final_means().unwrap();

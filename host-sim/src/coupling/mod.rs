@@ -55,6 +55,9 @@ pub struct Sample {
     pub time_s: f64,
     /// Outer diameter at mid-length D (m).
     pub outer_diameter_m: f64,
+    /// Smallest and largest outer caliper diameter at mid-length (m):
+    /// how far the zone is from round ([`Skin::calipers_at_mid_length_m`]).
+    pub calipers_m: (f64, f64),
     /// Internal (fluid) pressure p_i (Pa).
     pub internal_pressure_pa: f64,
     /// Sand pressure on the skin p_e (Pa): contact normal force over the
@@ -136,6 +139,7 @@ impl<S: StrainEnergy> Coupling<S> {
         Ok(Sample {
             time_s: self.skin.time_s,
             outer_diameter_m: self.skin.outer_diameter_at_mid_length_m(),
+            calipers_m: self.skin.calipers_at_mid_length_m(),
             internal_pressure_pa: self.skin.pressure_pa,
             sand_pressure_pa: self.last.normal_force_n / self.skin.outer_area_m2()?,
             face_pressure_pa: self.face.as_ref().map(FrontFace::pressure_pa),

@@ -636,6 +636,32 @@ impl<S: StrainEnergy> Skin<S> {
         2.0 * self.ring_radius_m(j) + t
     }
 
+    /// The smallest and largest outer caliper diameters at mid-length (m):
+    /// over the middle ring's directions, the distance between opposite
+    /// nodes (the mid-surface radii r(θ) + r(θ + π), or 2·r(θ) with an
+    /// odd node count) plus the current wall thickness. Their spread is
+    /// how far the zone is from round; their mean is close to
+    /// [`Skin::outer_diameter_at_mid_length_m`].
+    pub fn calipers_at_mid_length_m(&self) -> (f64, f64) {
+        let j = self.mesh.middle_ring();
+        let ring = self.mesh.ring(j);
+        let r: Vec<f64> = ring.map(|a| self.position_m[a].xy().norm()).collect();
+        let t = self.ring_thickness_m(j).unwrap_or(self.spec.thickness_m);
+        let n = r.len();
+        let across = |i: usize| {
+            if n.is_multiple_of(2) {
+                r[i] + r[(i + n / 2) % n]
+            } else {
+                2.0 * r[i]
+            }
+        };
+        (0..n)
+            .map(|i| across(i) + t)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), d| {
+                (lo.min(d), hi.max(d))
+            })
+    }
+
     /// von Mises stress of each element (Pa), plane stress: of the
     /// membrane stress, or with bending the largest over its nodes and
     /// the two surfaces of the element's membrane stress ± that node's

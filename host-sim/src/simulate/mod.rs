@@ -199,6 +199,12 @@ impl Report {
                 m.head_receding_m * 1e3,
                 m.max_von_mises_pa * 1e-6,
             );
+            let _ = writeln!(
+                s,
+                "shape at the end: caliper diameters at mid-length {:.2} to {:.2} mm (D is their mean over the ring; round: equal)",
+                l.calipers_m.0 * 1e3,
+                l.calipers_m.1 * 1e3,
+            );
             if let Some(e) = m.max_bending_strain {
                 let _ = writeln!(
                     s,

@@ -19,8 +19,9 @@ use crate::sand::regenerate::bin_samples_indexed;
 use crate::sand::{BalloonPoint, BALLOON_FINAL_DIAMETER_MM};
 
 /// The samples as CSV: time, D, p_i, p_e, p_h, max von Mises, contacts,
-/// head receding distance D_r, the sand's share of p_i; with a shell skin
-/// also its largest surface bending strain.
+/// head receding distance D_r, the sand's share of p_i, the smallest and
+/// largest caliper diameters at mid-length; with a shell skin also its
+/// largest surface bending strain.
 pub fn samples_csv(report: &Report) -> Result<Vec<u8>> {
     let mut w = csv::Writer::from_writer(Vec::new());
     let shell = report.spec.skin_bending;
@@ -34,6 +35,8 @@ pub fn samples_csv(report: &Report) -> Result<Vec<u8>> {
         "skin_contacts",
         "head_receding_mm",
         "sand_share_kpa",
+        "min_caliper_mm",
+        "max_caliper_mm",
     ];
     if shell {
         header.push("max_bending_strain");
@@ -50,6 +53,8 @@ pub fn samples_csv(report: &Report) -> Result<Vec<u8>> {
             s.contacts.to_string(),
             format!("{:.4}", s.head_receding_m * 1e3),
             format!("{:.5}", report.sand_share_pa(s).unwrap_or(f64::NAN) * 1e-3),
+            format!("{:.4}", s.calipers_m.0 * 1e3),
+            format!("{:.4}", s.calipers_m.1 * 1e3),
         ];
         if shell {
             row.push(format!("{:.4}", s.max_bending_strain.unwrap_or(f64::NAN)));
