@@ -176,23 +176,35 @@ fn internal_forces_are_the_gradient_of_the_strain_energy() {
 fn forces_match_the_energy_gradient(mut skin: Skin<Yeoh>) {
     let mut f = vec![Vector3::zeros(); skin.node_count()];
     skin.internal_forces_n(&mut f).unwrap();
+    let worst = worst_gradient_error(&mut skin, &f, |s| s.strain_energy_j().unwrap());
+    println!("largest |f − dE/dx| / max|f| = {worst:.2e}");
+    assert!(worst < 1e-6, "{worst}");
+}
+
+/// Largest difference between the forces `f` and the central finite
+/// differences of `energy` over every node coordinate of `skin`, over the
+/// largest force.
+fn worst_gradient_error(
+    skin: &mut Skin<Yeoh>,
+    f: &[Vector3<f64>],
+    energy: impl Fn(&Skin<Yeoh>) -> f64,
+) -> f64 {
     let scale = f.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    assert!(scale > 0.0);
     let h = 1e-8;
     let mut worst = 0.0f64;
     for (a, fa) in f.iter().enumerate() {
         for k in 0..3 {
             let x0 = skin.position_m[a][k];
             skin.position_m[a][k] = x0 + h;
-            let ep = skin.strain_energy_j().unwrap();
+            let ep = energy(skin);
             skin.position_m[a][k] = x0 - h;
-            let em = skin.strain_energy_j().unwrap();
+            let em = energy(skin);
             skin.position_m[a][k] = x0;
-            let fd = (ep - em) / (2.0 * h);
-            worst = worst.max((fd - fa[k]).abs() / scale);
+            worst = worst.max(((ep - em) / (2.0 * h) - fa[k]).abs() / scale);
         }
     }
-    println!("largest |f − dE/dx| / max|f| = {worst:.2e}");
-    assert!(worst < 1e-6, "{worst}");
+    worst
 }
 
 #[test]
@@ -365,21 +377,7 @@ fn the_bending_forces_are_the_gradient_of_the_bending_energy() {
         let bending = skin.bending.clone().unwrap();
         let mut f = vec![Vector3::zeros(); skin.node_count()];
         bending.add_internal_forces_n(&skin.position_m, &mut f);
-        let scale = f.iter().map(|v| v.norm()).fold(0.0, f64::max);
-        assert!(scale > 0.0);
-        let h = 1e-8;
-        let mut worst = 0.0f64;
-        for (a, fa) in f.iter().enumerate() {
-            for k in 0..3 {
-                let x0 = skin.position_m[a][k];
-                skin.position_m[a][k] = x0 + h;
-                let ep = bending.energy_j(&skin.position_m);
-                skin.position_m[a][k] = x0 - h;
-                let em = bending.energy_j(&skin.position_m);
-                skin.position_m[a][k] = x0;
-                worst = worst.max(((ep - em) / (2.0 * h) - fa[k]).abs() / scale);
-            }
-        }
+        let worst = worst_gradient_error(&mut skin, &f, |s| bending.energy_j(&s.position_m));
         println!("{ends:?}: largest |f − dW_b/dx| / max|f| = {worst:.2e}");
         assert!(worst < 1e-6, "{ends:?}: {worst}");
     }
