@@ -4,9 +4,10 @@
 //! The membrane ([`super::element`]) carries the skin's stretch; this adds
 //! the resistance of its thickness to bending, which the membrane lacks:
 //! where the zone meets the rigid body and head, the skin leaves the clamp
-//! along the axis and turns outwards over a boundary layer of a few
-//! millimetres, and there its surfaces carry the largest stresses (the
-//! paper's "stress concentrated in the more curved areas").
+//! along the axis and turns outwards over a boundary layer (≈ √(RT) in
+//! linear theory, about a millimetre in the paper's inflated zone), and
+//! there its surfaces carry the largest stresses (the paper's "stress
+//! concentrated in the more curved areas").
 //!
 //! At each node the bending measures are the normal components of the
 //! second differences of the positions along the axis and around the ring,
