@@ -361,6 +361,16 @@ fn an_ensemble_reports_each_seeds_run_and_their_mean_and_sd() {
     let rows: Vec<&str> = csv.lines().collect();
     assert_eq!(rows.len(), 5, "{csv}");
     assert!(rows[0].starts_with("seed,") && rows[0].contains("final_p_i_kpa"));
+    assert!(rows[0].contains("final_min_caliper_mm,final_max_caliper_mm"));
+    // The last sample's calipers, per run.
+    let hi = e
+        .metrics()
+        .into_iter()
+        .find(|m| m.name == "final_max_caliper_mm")
+        .unwrap();
+    for (v, r) in hi.values.iter().zip(&e.reports) {
+        assert_eq!(*v, r.last().unwrap().calipers_m.1 * 1e3);
+    }
     assert!(
         rows[1].starts_with("4,") && rows[3].starts_with("mean,") && rows[4].starts_with("sd,")
     );

@@ -59,7 +59,7 @@ pub struct Ensemble {
 type Reader = fn(&Report) -> f64;
 
 /// The reported numbers: name (with its unit) and how to read it.
-const METRICS: [(&str, Reader); 12] = [
+const METRICS: [(&str, Reader); 14] = [
     ("settled_p_e_kpa", |r| r.settled.sand_pressure_pa * 1e-3),
     ("settled_p_h_kpa", |r| r.settled.face_pressure_pa * 1e-3),
     ("initial_p_h_kpa", |r| r.initial_face_pressure_pa() * 1e-3),
@@ -93,6 +93,13 @@ const METRICS: [(&str, Reader); 12] = [
     ("max_von_mises_mpa", |r| {
         r.final_means()
             .map_or(f64::NAN, |m| m.max_von_mises_pa * 1e-6)
+    }),
+    // The zone's shape at the end (how far from round).
+    ("final_min_caliper_mm", |r| {
+        r.last().map_or(f64::NAN, |s| s.calipers_m.0 * 1e3)
+    }),
+    ("final_max_caliper_mm", |r| {
+        r.last().map_or(f64::NAN, |s| s.calipers_m.1 * 1e3)
     }),
     ("wall_s", |r| r.wall_s),
 ];
