@@ -559,3 +559,43 @@ fn the_calipers_at_mid_length_tell_a_round_zone_from_a_lobed_one() {
     );
     assert!(hi2 > hi + 2.5e-3);
 }
+
+#[test]
+fn round_rings_stay_round_under_a_one_sided_load() {
+    // The pressurised zone pushed sideways at one node of its middle ring:
+    // free, the ring dents; with `round_rings` every inner ring stays a
+    // circle (calipers equal), its radius set by the loads as a whole.
+    let spec = SkinSpec::paper(24, 6);
+    let mut spread = Vec::new();
+    for round in [false, true] {
+        let mut skin = Skin::new(default_skin(), &spec, Ends::Clamped).unwrap();
+        skin.round_rings = round;
+        skin.pressure_pa = 400.0;
+        skin.damping_per_s = 200.0;
+        let j = skin.mesh.middle_ring();
+        let pushed = skin.mesh.ring(j).start + 6;
+        let dt = 0.5 * skin.stable_time_step_s().unwrap();
+        for _ in 0..20_000 {
+            skin.external_force_n[pushed] = Vector3::new(0.0, -5e-3, 0.0);
+            skin.step(dt).unwrap();
+        }
+        let (lo, hi) = skin.calipers_at_mid_length_m();
+        println!("round {round}: calipers {:.4}–{:.4} mm", lo * 1e3, hi * 1e3);
+        if round {
+            for j in 1..skin.mesh.along {
+                let r: Vec<f64> = skin
+                    .mesh
+                    .ring(j)
+                    .map(|a| skin.position_m[a].xy().norm())
+                    .collect();
+                let (a, b) = r
+                    .iter()
+                    .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+                assert!(b - a < 1e-12, "ring {j}: {a} to {b}");
+            }
+        }
+        spread.push(hi - lo);
+    }
+    assert!(spread[0] > 0.1e-3, "{spread:?}");
+    assert!(spread[1] < 1e-12, "{spread:?}");
+}

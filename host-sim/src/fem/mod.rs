@@ -259,6 +259,12 @@ pub struct Skin<S: StrainEnergy> {
     /// [`Ends::Head`]: how far the body has carried the back ring from
     /// rest along +z (m).
     pub body_displacement_m: f64,
+    /// Keep the rings round in [`Skin::step`]: each inner ring moves only
+    /// radially and axially as a whole (an axisymmetric constraint, off by
+    /// default). It isolates the response of what surrounds the skin to a
+    /// round expansion from the skin's own choice of shape; [`Skin::relax`]
+    /// ignores it.
+    pub round_rings: bool,
 }
 
 impl<S: StrainEnergy> Skin<S> {
@@ -333,6 +339,7 @@ impl<S: StrainEnergy> Skin<S> {
             }),
             body_velocity_m_s: 0.0,
             body_displacement_m: 0.0,
+            round_rings: false,
         })
     }
 
@@ -517,14 +524,13 @@ impl<S: StrainEnergy> Skin<S> {
         self.update_pressure();
         let head_n = self.residual_and_head_force_n(&mut r)?;
         let c = 0.5 * self.damping_per_s * dt_s;
-        for (((x, v), m), f) in self
-            .position_m
-            .iter_mut()
-            .zip(&mut self.velocity_m_s)
-            .zip(&self.mass_kg)
-            .zip(&r)
-        {
+        for ((v, m), f) in self.velocity_m_s.iter_mut().zip(&self.mass_kg).zip(&r) {
             *v = (*v * (1.0 - c) + f * (dt_s / m)) / (1.0 + c);
+        }
+        if self.round_rings {
+            self.keep_rings_round();
+        }
+        for (x, v) in self.position_m.iter_mut().zip(&self.velocity_m_s) {
             *x += *v * dt_s;
         }
         if let Some(head) = &mut self.head {
@@ -550,6 +556,31 @@ impl<S: StrainEnergy> Skin<S> {
         }
         self.time_s += dt_s;
         Ok(())
+    }
+
+    /// Gives every node of each inner ring the ring's mean radial and axial
+    /// velocity and no tangential one ([`Skin::round_rings`]): the
+    /// momentum-preserving projection (the ring's nodes have equal masses)
+    /// onto the axisymmetric motions, so rings that start round stay round.
+    fn keep_rings_round(&mut self) {
+        for j in 1..self.mesh.along {
+            let ring = self.mesh.ring(j);
+            let n = ring.len() as f64;
+            let radial = |a: usize, x: &[Vector3<f64>]| {
+                let r = x[a].xy();
+                let len = r.norm();
+                Vector3::new(r.x / len, r.y / len, 0.0)
+            };
+            let (mut vr, mut vz) = (0.0, 0.0);
+            for a in ring.clone() {
+                vr += self.velocity_m_s[a].dot(&radial(a, &self.position_m));
+                vz += self.velocity_m_s[a].z;
+            }
+            let (vr, vz) = (vr / n, vz / n);
+            for a in ring {
+                self.velocity_m_s[a] = radial(a, &self.position_m) * vr + Vector3::z() * vz;
+            }
+        }
     }
 
     /// Dynamic relaxation to the static equilibrium under the current loads

@@ -136,6 +136,10 @@ pub struct ScenarioSpec {
     /// Whether the skin resists bending (a shell, [`crate::fem::bending`],
     /// see [`ScenarioSpec::with_shell`]); off (default): a membrane.
     pub skin_bending: bool,
+    /// Keep the zone round ([`crate::fem::Skin::round_rings`]): the sand's
+    /// answer to a round expansion, whatever shape the skin would take
+    /// (off by default; for studies, README-simulate).
+    pub round_zone: bool,
     /// VTK frames over the expansion (≥ 1).
     pub frames: usize,
     /// Samples over the expansion (about).
@@ -209,6 +213,7 @@ impl ScenarioSpec {
             skin_mesh: (24, 6),
             skin_end_row_m: None,
             skin_bending: false,
+            round_zone: false,
             frames: 10,
             samples: 200,
             seed: 1,
@@ -415,7 +420,9 @@ impl ScenarioSpec {
             bending: self.skin_bending,
             ..SkinSpec::from_tube(&self.tube, around, along)
         };
-        Skin::new(self.skin_law(), &spec, ends)
+        let mut skin = Skin::new(self.skin_law(), &spec, ends)?;
+        skin.round_rings = self.round_zone;
+        Ok(skin)
     }
 
     /// Buoyant unit weight of the sand γ' = φ (ρ_s − ρ_w) g (N/m³).
