@@ -140,10 +140,11 @@ impl Report {
             self.spec.tube.outer_diameter_mm,
             self.spec.final_diameter_m * 1e3,
             self.spec.tube.length_mm,
-            if self.spec.skin_bending {
-                "skin: shell"
-            } else {
-                "skin: membrane"
+            match (self.spec.skin_bending, self.spec.round_zone) {
+                (true, false) => "skin: shell",
+                (false, false) => "skin: membrane",
+                (true, true) => "skin: shell, rings held round",
+                (false, true) => "skin: membrane, rings held round",
             },
             self.spec.grain_radius_m * 1e3,
             self.spec
@@ -210,9 +211,9 @@ impl Report {
                     s,
                     "skin as a shell: largest surface bending strain {e:.2}{}",
                     if e > BENDING_STRAIN_LIMIT {
-                        " (over 0.3: the skin folds tighter than linear thin-shell bending describes; its stress peak is an extrapolation)"
+                        format!(" (over {BENDING_STRAIN_LIMIT}: the skin folds tighter than linear thin-shell bending describes; its stress peak is an extrapolation)")
                     } else {
-                        ""
+                        String::new()
                     }
                 );
             }
