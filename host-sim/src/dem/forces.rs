@@ -414,10 +414,10 @@ impl PairRun<'_> {
         let mut slots = [0u32; PAIR_CHUNK];
         let mut touching = [0u32; PAIR_CHUNK];
         let mut inside = [0u32; PAIR_CHUNK];
-        let mut results = Vec::with_capacity(PAIR_CHUNK);
-        let len = self.pi.len();
-        // The particle whose sums are held in (fi, ti), radius ri.
-        let (mut held, mut fi, mut ti, mut ri) = (lo, f[0], t[0], p.radius_m[lo]);
+        let mut outside = [0u32; PAIR_CHUNK];
+        let (pi, pj) = (self.pi, self.pj);
+        let radius = |i: usize| x.packed.sphere[i].0[3];
+        let len = pi.len();
         for s0 in (0..len).step_by(PAIR_CHUNK) {
             let m = PAIR_CHUNK.min(len - s0);
             for (n, s) in slots[..m].iter_mut().enumerate() {
@@ -425,43 +425,45 @@ impl PairRun<'_> {
             }
             let slots = &slots[..m];
             let count = self.sort_out(&x.packed.sphere, slots, &mut touching);
-            let mut n_inside = 0;
+            let (mut n_inside, mut n_outside) = (0, 0);
             for &w in &touching[..count] {
+                let is_inside = (pj[slots[w as usize] as usize] as usize) < hi;
                 inside[n_inside] = w;
-                n_inside += usize::from((self.pj[slots[w as usize] as usize] as usize) < hi);
+                outside[n_outside] = w;
+                n_inside += usize::from(is_inside);
+                n_outside += usize::from(!is_inside);
             }
-            results.clear();
+            // Each inside pair's result goes straight to both particles, in
+            // pair order: a particle's sum sees the same terms in the same
+            // order as if the pairs were taken one by one.
             let which = &inside[..n_inside];
+            let mut next = 0;
             self.evaluate(x.packed, x.model, x.dt_s, slots, which, |cf| {
-                results.push(cf)
+                let s = slots[which[next] as usize] as usize;
+                next += 1;
+                let (i, j) = (pi[s] as usize, pj[s] as usize);
+                add_contact(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
+                add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
             });
-            let mut next = results.iter();
-            for &w in &touching[..count] {
+            // A particle's straddling pairs come after its inside ones (j
+            // ascending) and nothing is added to it after its own pairs, so
+            // adding them after this chunk's inside pairs keeps the order.
+            for &w in &outside[..n_outside] {
                 let s = slots[w as usize] as usize;
-                let (i, j) = (self.pi[s] as usize, self.pj[s] as usize);
-                if i != held {
-                    // The pairs of i are consecutive, and i is never a later
-                    // pair's second particle: its sums stay in registers.
-                    f[held - lo] = fi;
-                    t[held - lo] = ti;
-                    (held, fi, ti, ri) = (i, f[i - lo], t[i - lo], p.radius_m[i]);
+                let i = pi[s] as usize;
+                let k = (k0 + s) as u32;
+                while x.cross[cursor] < k {
+                    cursor += 1;
                 }
-                if j < hi {
-                    // One result per inside pair, in order.
-                    let Some(cf) = next.next() else { break };
-                    add_contact(&mut fi, &mut ti, cf, ri, false);
-                    add_contact(&mut f[j - lo], &mut t[j - lo], cf, p.radius_m[j], true);
-                } else {
-                    let k = (k0 + s) as u32;
-                    while x.cross[cursor] < k {
-                        cursor += 1;
-                    }
-                    add_contact(&mut fi, &mut ti, &x.cross_force[cursor], ri, false);
-                }
+                add_contact(
+                    &mut f[i - lo],
+                    &mut t[i - lo],
+                    &x.cross_force[cursor],
+                    radius(i),
+                    false,
+                );
             }
         }
-        f[held - lo] = fi;
-        t[held - lo] = ti;
     }
 
     #[cfg(target_arch = "x86_64")]
