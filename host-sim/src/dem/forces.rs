@@ -2,11 +2,12 @@
 //! then each listed pair in ascending pair order (the pairs where it is the
 //! second particle come first: their first particle is lower), then its
 //! wall contacts. The particles are split into blocks of consecutive
-//! indices (about two per worker); a block's pairs are evaluated and summed
-//! by one task as it goes, four touching pairs at a time (SIMD), and only
-//! the pairs that straddle two blocks are evaluated first and stored. Each
-//! particle so sums the same terms in the same order whatever the blocks,
-//! and the results do not depend on the thread count.
+//! indices (one per worker, sized by the work they took before); a block's
+//! pairs are evaluated and summed by one task as it goes, four touching
+//! pairs at a time (SIMD), and only the pairs that straddle two blocks are
+//! evaluated first and stored. Each particle so sums the same terms in the
+//! same order whatever the blocks, and the results do not depend on the
+//! thread count.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -24,11 +25,13 @@ const PAIR_CHUNK: usize = 256;
 /// Particles per parallel task in the wall pass (also fixes the order of
 /// the wall-force partial sums, so totals do not depend on the thread count).
 const GATHER_CHUNK: usize = 512;
-/// Blocks per worker (work stealing evens out what the estimate misses).
-const BLOCKS_PER_WORKER: usize = 2;
+/// Blocks per worker: one, so that as few pairs as possible straddle two
+/// blocks (they are evaluated in a pass of their own); the measured times
+/// even out what the work estimate misses ([`Blocks::split`]).
+const BLOCKS_PER_WORKER: usize = 1;
 /// Cost of a touching pair in the pass, in listed pairs apart (measured:
-/// ≈ 45 ns against ≈ 5 ns).
-const TOUCHING_WEIGHT: u64 = 9;
+/// ≈ 25 ns against ≈ 5 ns); only the first split of a run relies on it.
+const TOUCHING_WEIGHT: f64 = 5.0;
 
 /// Whether the spheres i and j overlap.
 #[inline(always)]
@@ -171,6 +174,14 @@ pub(crate) struct Blocks {
     made_for: (u64, usize),
     /// Block b holds particles `first[b]..first[b + 1]`.
     first: Vec<usize>,
+    /// Estimated work of each block at the split (listed pairs, touching
+    /// ones weighted, scaled by the last split's measured cost rates).
+    work: Vec<f64>,
+    /// Wall time each block's task took since the split (ns).
+    spent_ns: Vec<u64>,
+    /// Each particle's cost per unit of estimated work, as learnt from the
+    /// blocks' times (1 until timed).
+    rate: Vec<f64>,
     /// Pairs whose second particle lies in a later block, ascending.
     cross: Vec<u32>,
     /// Their forces at the last evaluation (zero when apart).
@@ -183,35 +194,60 @@ pub(crate) struct Blocks {
 
 impl Blocks {
     /// Splits the particles of `list` into `count` blocks of about equal
-    /// work (listed pairs, touching ones weighted by [`TOUCHING_WEIGHT`]),
-    /// unless already split so for this build.
+    /// work, unless already split so for this build. A particle's work is
+    /// its listed pairs, touching ones weighted by [`TOUCHING_WEIGHT`],
+    /// times its learnt rate: at each split the rates of a block's
+    /// particles are scaled by the square root of how long the block took
+    /// since the last split against its estimate (relative to the mean), so
+    /// a block that
+    /// ran long gives up particles until the times agree. Timing only moves
+    /// the split, and the forces do not depend on it: the results stay the
+    /// same bits.
     fn split(&mut self, list: &NeighbourList, count: usize) {
         let n = list.start.len().saturating_sub(1);
         let count = count.clamp(1, n.max(1));
         if self.made_for == (list.builds, count) && self.first.len() == count + 1 {
             return;
         }
+        match self.measured_rates(n) {
+            Some((ends, ratio)) => {
+                let mut b = 0;
+                for (i, rate) in self.rate.iter_mut().enumerate() {
+                    while i >= ends[b] {
+                        b += 1;
+                    }
+                    // Half the correction (in logs) per split: the times
+                    // are noisy, and a full step overshoots.
+                    *rate = (*rate * ratio[b].sqrt()).clamp(0.25, 4.0);
+                }
+            }
+            None if self.rate.len() != n => self.rate = vec![1.0; n],
+            None => {}
+        }
         self.made_for = (list.builds, count);
-        // Equal work per block: a touching pair (open at the build) costs
-        // about as much as TOUCHING_WEIGHT listed pairs apart.
         let mut work = Vec::with_capacity(n + 1);
-        work.push(0u64);
-        let mut total = 0u64;
-        for i in 0..n {
+        work.push(0.0f64);
+        let mut total = 0.0f64;
+        for (i, &rate) in self.rate.iter().enumerate() {
             let ks = list.start[i] as usize..list.start[i + 1] as usize;
-            let open: u64 = list.open[ks.clone()].iter().map(|&o| u64::from(o)).sum();
-            total += ks.len() as u64 + (TOUCHING_WEIGHT - 1) * open;
+            let open: usize = list.open[ks.clone()].iter().map(|&o| usize::from(o)).sum();
+            total += rate * (ks.len() as f64 + (TOUCHING_WEIGHT - 1.0) * open as f64);
             work.push(total);
         }
         self.first.clear();
         self.first.push(0);
         for b in 1..count {
-            let target = total * b as u64 / count as u64;
+            let target = total * b as f64 / count as f64;
             let at = work[..n].partition_point(|&w| w < target);
             let prev = self.first.last().copied().unwrap_or(0);
             self.first.push(at.max(prev));
         }
         self.first.push(n);
+        self.work = (0..count)
+            .map(|b| work[self.first[b + 1]] - work[self.first[b]])
+            .collect();
+        self.spent_ns.clear();
+        self.spent_ns.resize(count, 0);
         let mut block = vec![0u32; n];
         for b in 0..count {
             block[self.first[b]..self.first[b + 1]].fill(b as u32);
@@ -245,6 +281,29 @@ impl Blocks {
     /// Number of blocks.
     fn count(&self) -> usize {
         self.first.len() - 1
+    }
+
+    /// The last split's block ends and each block's time per unit of
+    /// estimated work relative to the mean, if it was for `n` particles,
+    /// had more than one block and was timed.
+    fn measured_rates(&self, n: usize) -> Option<(Vec<usize>, Vec<f64>)> {
+        let count = self.work.len();
+        if count < 2 || self.first.len() != count + 1 || self.first[count] != n {
+            return None;
+        }
+        if self.rate.len() != n {
+            return None;
+        }
+        let spent: u64 = self.spent_ns.iter().sum();
+        let work: f64 = self.work.iter().sum();
+        if spent == 0 || work <= 0.0 || self.work.iter().any(|&w| w <= 0.0) {
+            return None;
+        }
+        let mean = spent as f64 / work;
+        let rates = (self.spent_ns.iter().zip(&self.work))
+            .map(|(&t, &w)| t as f64 / w / mean)
+            .collect();
+        Some((self.first[1..].to_vec(), rates))
     }
 }
 
@@ -546,10 +605,11 @@ pub(crate) fn pair_forces(
     let opens = split_lengths(&mut list.open, (0..nb).map(|b| pairs_of(b).len()));
     let forces = split_lengths(&mut force, block_lens());
     let torques = split_lengths(&mut torque, block_lens());
-    (histories, opens, forces, torques)
+    let spent_ns: Vec<u64> = (histories, opens, forces, torques)
         .into_par_iter()
         .enumerate()
-        .for_each(|(b, (history, open, f, t))| {
+        .map(|(b, (history, open, f, t))| {
+            let started = std::time::Instant::now();
             let ks = pairs_of(b);
             let mut run = PairRun::of(pi, pj, ks.clone(), history, open);
             let into = &incoming[incoming_start[b]..incoming_start[b + 1]];
@@ -559,7 +619,12 @@ pub(crate) fn pair_forces(
                 simd,
                 run.block_avx2 / block(&x, range, ks.start, into, cursor, f, t)
             );
-        });
+            u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX)
+        })
+        .collect();
+    for (total, t) in blocks.spent_ns.iter_mut().zip(spent_ns) {
+        *total = total.saturating_add(t);
+    }
     p.force_n = force;
     p.torque_n_m = torque;
 }
@@ -750,5 +815,53 @@ impl WallContacts {
                 .step_by(stride)
                 .fold(Vector3::zeros(), |a, b| a + b);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row of 200 touching spheres (r = 1 mm, 1.9 mm apart) and its list.
+    fn row() -> NeighbourList {
+        let x: Vec<_> = (0..200)
+            .map(|i| Vector3::new(i as f64 * 1.9e-3, 0.0, 0.0))
+            .collect();
+        let r = vec![1e-3; x.len()];
+        let mut list = NeighbourList::default();
+        list.build(&x, &r, 2e-4).unwrap();
+        list
+    }
+
+    #[test]
+    fn equal_work_splits_a_uniform_row_in_the_middle() {
+        let list = row();
+        let mut blocks = Blocks::default();
+        blocks.split(&list, 2);
+        assert_eq!(blocks.first, vec![0, 100, 200]);
+        // Straddling: only the pair (99, 100).
+        assert_eq!(blocks.cross.len(), 1);
+    }
+
+    #[test]
+    fn a_block_that_ran_long_gives_up_particles_at_the_next_split() {
+        let mut list = row();
+        let mut blocks = Blocks::default();
+        blocks.split(&list, 2);
+        // Block 0 took twice as long per unit of work as block 1.
+        blocks.spent_ns = vec![2_000, 1_000];
+        list.builds += 1;
+        blocks.split(&list, 2);
+        let b = blocks.first[1];
+        // Rates √(4/3) and √(2/3): with one listed pair per particle (none
+        // for the last) the halves balance where 1.155 b = 0.816 (199 − b),
+        // b ≈ 85.
+        assert!((84..=86).contains(&b), "split at {b}");
+        // Untimed, the same build keeps its split; a new build with equal
+        // times keeps the learnt rates.
+        blocks.spent_ns = vec![1_000, 1_000];
+        list.builds += 1;
+        blocks.split(&list, 2);
+        assert!(blocks.first[1] < 100);
     }
 }
