@@ -579,17 +579,31 @@ pub(crate) fn pair_forces(
         cross_force: &[],
     };
 
-    // 1. The straddling pairs, evaluated by the block of their first particle.
-    let histories = split_lengths(&mut list.history, (0..nb).map(|b| pairs_of(b).len()));
-    let opens = split_lengths(&mut list.open, (0..nb).map(|b| pairs_of(b).len()));
-    let outs = split_lengths(&mut blocks.cross_force, (0..nb).map(|b| cross_of(b).len()));
+    // 1. The straddling pairs, in as many pieces of equal count as there
+    // are blocks (they bunch where blocks meet, so by block they would fall
+    // to one worker); piece q owns the list's pairs from its first
+    // straddling pair to the next piece's.
+    let pieces = nb.min(cross.len()).max(1);
+    let cut = |q: usize| cross.len() * q / pieces;
+    let pair_cut = |q: usize| match q {
+        0 => 0,
+        q if q == pieces => pi.len(),
+        q => cross[cut(q)] as usize,
+    };
+    let piece_pairs = || (0..pieces).map(|q| pair_cut(q + 1) - pair_cut(q));
+    let histories = split_lengths(&mut list.history, piece_pairs());
+    let opens = split_lengths(&mut list.open, piece_pairs());
+    let outs = split_lengths(
+        &mut blocks.cross_force,
+        (0..pieces).map(|q| cut(q + 1) - cut(q)),
+    );
     (histories, opens, outs)
         .into_par_iter()
         .enumerate()
-        .for_each(|(b, (history, open, out))| {
-            let ks = pairs_of(b);
+        .for_each(|(q, (history, open, out))| {
+            let ks = pair_cut(q)..pair_cut(q + 1);
             let mut run = PairRun::of(pi, pj, ks.clone(), history, open);
-            let mine = &cross[cross_of(b)];
+            let mine = &cross[cut(q)..cut(q + 1)];
             dispatch!(
                 simd,
                 run.straddling_avx2 / straddling(&x, ks.start, mine, out)
