@@ -658,12 +658,165 @@ fn wall_geometry(p: &Particles, i: usize, wall: &Wall) -> Option<ContactGeometry
     ))
 }
 
+/// Four scalar contact geometries as one of four lanes.
+#[inline(always)]
+fn geometry_lanes(g: &[ContactGeometry; LANE_COUNT]) -> ContactGeometry<Lanes> {
+    let lanes = |f: fn(&ContactGeometry) -> f64| Lanes(std::array::from_fn(|l| f(&g[l])));
+    let vec3 = |f: fn(&ContactGeometry) -> Vector3<f64>| {
+        Vector3::new(
+            Lanes(std::array::from_fn(|l| f(&g[l]).x)),
+            Lanes(std::array::from_fn(|l| f(&g[l]).y)),
+            Lanes(std::array::from_fn(|l| f(&g[l]).z)),
+        )
+    };
+    ContactGeometry {
+        normal: vec3(|g| g.normal),
+        overlap_m: lanes(|g| g.overlap_m),
+        radius_eff_m: lanes(|g| g.radius_eff_m),
+        mass_eff_kg: lanes(|g| g.mass_eff_kg),
+        normal_velocity_m_s: lanes(|g| g.normal_velocity_m_s),
+        tangential_velocity_m_s: vec3(|g| g.tangential_velocity_m_s),
+        relative_spin_rad_s: vec3(|g| g.relative_spin_rad_s),
+    }
+}
+
+/// One wall-pass chunk (particles from `lo`): what it reads.
+struct WallChunk<'a> {
+    params: &'a Params,
+    p: &'a Particles,
+    /// The chunk's candidate particles, ascending.
+    candidates: &'a [u32],
+    near: &'a [u64],
+    lo: usize,
+}
+
+/// The touching contacts of one wall gathered for a four-lane evaluation.
+struct WallBatch {
+    k: [usize; LANE_COUNT],
+    g: [ContactGeometry; LANE_COUNT],
+    len: usize,
+}
+
+impl WallChunk<'_> {
+    /// Adds the chunk's wall contacts to `f`, `t` (the chunk's slices),
+    /// wall by wall, four touching contacts at a time, each particle's in
+    /// wall order, so each sum sees the terms the particle-by-particle
+    /// order gave; `wp[w]` sums wall w's reaction in particle order.
+    #[inline(always)]
+    fn run(
+        &self,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+        wh: &mut [History],
+        mask: &mut [u64],
+        wp: &mut [Vector3<f64>],
+    ) {
+        let params = self.params;
+        let stride = params.walls.len().max(1);
+        wp.iter_mut().for_each(|w| *w = Vector3::zeros());
+        // The walls each candidate touches now (bit per wall, as `mask`).
+        let mut touching = [0u64; GATHER_CHUNK];
+        for (w, wall) in params.walls.iter().enumerate() {
+            let bit = 1u64 << w.min(63);
+            let mut batch = WallBatch {
+                k: [0; LANE_COUNT],
+                g: [ContactGeometry::default(); LANE_COUNT],
+                len: 0,
+            };
+            for &i in self.candidates {
+                let i = i as usize;
+                let k = i - self.lo;
+                // Walls that can touch i before the next list build, and
+                // those it touched last step (to clear their history).
+                if (self.near[i] | mask[k]) & bit == 0 {
+                    continue;
+                }
+                match wall_geometry(self.p, i, wall) {
+                    Some(g) => {
+                        touching[k] |= bit;
+                        batch.k[batch.len] = k;
+                        batch.g[batch.len] = g;
+                        batch.len += 1;
+                        if batch.len == LANE_COUNT {
+                            self.evaluate(w, &batch, f, t, wh, wp);
+                            batch.len = 0;
+                        }
+                    }
+                    // Clear a history only where a contact just opened
+                    // (keeps the step from streaming every history).
+                    None if mask[k] & bit != 0 => wh[k * stride + w] = History::default(),
+                    None => {}
+                }
+            }
+            if batch.len > 0 {
+                // Pad with the last contact: the same history in, the
+                // same values out, and only `len` lanes are kept.
+                for l in batch.len..LANE_COUNT {
+                    batch.k[l] = batch.k[batch.len - 1];
+                    batch.g[l] = batch.g[batch.len - 1];
+                }
+                self.evaluate(w, &batch, f, t, wh, wp);
+            }
+        }
+        for &i in self.candidates {
+            let k = i as usize - self.lo;
+            mask[k] = touching[k];
+        }
+    }
+
+    /// Evaluates `batch` on wall `w` and adds its first `batch.len`
+    /// contacts, in order.
+    #[inline(always)]
+    fn evaluate(
+        &self,
+        w: usize,
+        batch: &WallBatch,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+        wh: &mut [History],
+        wp: &mut [Vector3<f64>],
+    ) {
+        let stride = self.params.walls.len().max(1);
+        let g = geometry_lanes(&batch.g);
+        let mut h = [Lanes::splat(0.0); HISTORY_LEN];
+        for (l, &k) in batch.k.iter().enumerate() {
+            for (h, &v) in h.iter_mut().zip(&wh[k * stride + w]) {
+                h.0[l] = v;
+            }
+        }
+        let model = &self.params.walls[w].model;
+        let cf = model.evaluate(&g, self.params.dt_s, &mut h);
+        for (l, &k) in batch.k.iter().enumerate().take(batch.len) {
+            wh[k * stride + w] = h.map(|c| c.0[l]);
+            let lane = |v: &Vector3<Lanes>| Vector3::new(v.x.0[l], v.y.0[l], v.z.0[l]);
+            let force = lane(&cf.force_n);
+            f[k] += force;
+            t[k] += lane(&cf.torque_per_radius_n) * self.p.radius_m[self.lo + k]
+                + lane(&cf.rolling_torque_n_m);
+            wp[w] -= force;
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_avx2(
+        &self,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+        wh: &mut [History],
+        mask: &mut [u64],
+        wp: &mut [Vector3<f64>],
+    ) {
+        self.run(f, t, wh, mask, wp)
+    }
+}
+
 /// Adds, per particle, its wall contacts to `p.force_n`/`p.torque_n_m`,
 /// keeping the wall contacts' history and each chunk's force on each wall
 /// in `walls`.
 pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallContacts) {
+    let simd = simd();
     let stride = params.walls.len().max(1);
-    let dt = params.dt_s;
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
     let pr: &Particles = p;
@@ -679,42 +832,14 @@ pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallCo
         .into_par_iter()
         .enumerate()
         .for_each(|(c, (f, t, wh, mask, wp))| {
-            wp.iter_mut().for_each(|w| *w = Vector3::zeros());
-            // Only particles that may touch a wall, ascending.
-            for &i in &candidates[candidate_start[c]..candidate_start[c + 1]] {
-                let i = i as usize;
-                let k = i - c * GATHER_CHUNK;
-                let ri = pr.radius_m[i];
-                let mut fi = f[k];
-                let mut ti = t[k];
-                let mut touching = 0u64;
-                // Walls that can touch i before the next list build, and
-                // those it touched last step (to clear their history).
-                let candidates = near[i] | mask[k];
-                for (w, wall) in params.walls.iter().enumerate() {
-                    let bit = 1u64 << w.min(63);
-                    if candidates & bit == 0 {
-                        continue;
-                    }
-                    match wall_geometry(pr, i, wall) {
-                        Some(g) => {
-                            let h = &mut wh[k * stride + w];
-                            let cf = wall.model.evaluate(&g, dt, h);
-                            fi += cf.force_n;
-                            ti += cf.torque_per_radius_n * ri + cf.rolling_torque_n_m;
-                            wp[w] -= cf.force_n;
-                            touching |= bit;
-                        }
-                        // Clear a history only where a contact just opened
-                        // (keeps the step from streaming every history).
-                        None if mask[k] & bit != 0 => wh[k * stride + w] = History::default(),
-                        None => {}
-                    }
-                }
-                mask[k] = touching;
-                f[k] = fi;
-                t[k] = ti;
-            }
+            let chunk = WallChunk {
+                params,
+                p: pr,
+                candidates: &candidates[candidate_start[c]..candidate_start[c + 1]],
+                near,
+                lo: c * GATHER_CHUNK,
+            };
+            dispatch!(simd, chunk.run_avx2 / run(f, t, wh, mask, wp));
         });
     p.force_n = force;
     p.torque_n_m = torque;

@@ -63,6 +63,22 @@ pub struct ContactGeometry<T = f64> {
     pub relative_spin_rad_s: Vector3<T>,
 }
 
+impl<T: Real> Default for ContactGeometry<T> {
+    /// No contact: everything zero (a placeholder, not a valid normal).
+    fn default() -> Self {
+        let zero = T::splat(0.0);
+        ContactGeometry {
+            normal: Vector3::repeat(zero),
+            overlap_m: zero,
+            radius_eff_m: zero,
+            mass_eff_kg: zero,
+            normal_velocity_m_s: zero,
+            tangential_velocity_m_s: Vector3::repeat(zero),
+            relative_spin_rad_s: Vector3::repeat(zero),
+        }
+    }
+}
+
 /// What one contact exerts, from i's point of view.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactForce<T = f64> {
