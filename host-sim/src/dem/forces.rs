@@ -690,6 +690,16 @@ struct WallChunk<'a> {
     lo: usize,
 }
 
+/// What one wall-pass chunk writes: its particles' forces and torques,
+/// their wall histories and open-wall bits, and its partial sums per wall.
+struct WallOut<'a> {
+    f: &'a mut [Vector3<f64>],
+    t: &'a mut [Vector3<f64>],
+    wh: &'a mut [History],
+    mask: &'a mut [u64],
+    wp: &'a mut [Vector3<f64>],
+}
+
 /// The touching contacts of one wall gathered for a four-lane evaluation.
 struct WallBatch {
     k: [usize; LANE_COUNT],
@@ -698,19 +708,13 @@ struct WallBatch {
 }
 
 impl WallChunk<'_> {
-    /// Adds the chunk's wall contacts to `f`, `t` (the chunk's slices),
-    /// wall by wall, four touching contacts at a time, each particle's in
-    /// wall order, so each sum sees the terms the particle-by-particle
-    /// order gave; `wp[w]` sums wall w's reaction in particle order.
+    /// Adds the chunk's wall contacts to `out.f`, `out.t`, wall by wall,
+    /// four touching contacts at a time, each particle's in wall order, so
+    /// each sum sees the terms the particle-by-particle order gave;
+    /// `out.wp[w]` sums wall w's reaction in particle order.
     #[inline(always)]
-    fn run(
-        &self,
-        f: &mut [Vector3<f64>],
-        t: &mut [Vector3<f64>],
-        wh: &mut [History],
-        mask: &mut [u64],
-        wp: &mut [Vector3<f64>],
-    ) {
+    fn run(&self, out: WallOut) {
+        let WallOut { f, t, wh, mask, wp } = out;
         let params = self.params;
         let stride = params.walls.len().max(1);
         wp.iter_mut().for_each(|w| *w = Vector3::zeros());
@@ -799,15 +803,8 @@ impl WallChunk<'_> {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn run_avx2(
-        &self,
-        f: &mut [Vector3<f64>],
-        t: &mut [Vector3<f64>],
-        wh: &mut [History],
-        mask: &mut [u64],
-        wp: &mut [Vector3<f64>],
-    ) {
-        self.run(f, t, wh, mask, wp)
+    fn run_avx2(&self, out: WallOut) {
+        self.run(out)
     }
 }
 
@@ -839,7 +836,8 @@ pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallCo
                 near,
                 lo: c * GATHER_CHUNK,
             };
-            dispatch!(simd, chunk.run_avx2 / run(f, t, wh, mask, wp));
+            let out = WallOut { f, t, wh, mask, wp };
+            dispatch!(simd, chunk.run_avx2 / run(out));
         });
     p.force_n = force;
     p.torque_n_m = torque;
