@@ -90,6 +90,9 @@ pub struct Coupling<S: StrainEnergy> {
     /// DEM time step (s): the contacts' tangential histories advance by it.
     pub dt_s: f64,
     history: Vec<History>,
+    /// The particles that touched the skin at the last exchange, ascending:
+    /// the only ones whose history is not zero.
+    touching: Vec<u32>,
     last: Exchange,
     error: Option<FemError>,
     synced: bool,
@@ -119,6 +122,7 @@ impl<S: StrainEnergy> Coupling<S> {
             face: None,
             dt_s,
             history: Vec::new(),
+            touching: Vec::new(),
             last: Exchange::default(),
             error: None,
             synced: false,
@@ -170,6 +174,7 @@ impl<S: StrainEnergy> Coupling<S> {
         let n = particles.len();
         if self.history.len() != n {
             self.history = vec![History::default(); n];
+            self.touching.clear();
         }
         let half_thickness: Vec<f64> = (0..skin.elements.len())
             .map(|k| Ok(0.5 * skin.spec.thickness_m * skin.strain(k)?.thickness_stretch()))
@@ -180,38 +185,33 @@ impl<S: StrainEnergy> Coupling<S> {
         let (model, dt) = (&self.model, self.dt_s);
         let parts: &Particles = particles;
         let skin_ro: &Skin<S> = skin;
-        // Contacts in parallel (each particle owns its history), applied
-        // below in particle order so the sums do not depend on threads.
-        let hits: Vec<Option<Hit>> = self
-            .history
-            .par_iter_mut()
-            .enumerate()
-            .map(|(i, history)| {
+        let history = &self.history;
+        // Only the particles in the box of the skin's reach can touch it (a
+        // few hundred of thousands): their contacts in parallel, each from
+        // its own history, collected in particle order and applied below in
+        // that order, so the sums do not depend on threads.
+        let hits: Vec<(usize, Hit, History)> = (0..n)
+            .into_par_iter()
+            .filter(|&i| {
                 let p = parts.position_m[i];
-                let outside = (0..3).any(|k| p[k] < lo[k] || p[k] > hi[k]);
-                let hit = if outside {
-                    None
-                } else {
-                    contact(
-                        skin_ro,
-                        &grid,
-                        &half_thickness,
-                        parts,
-                        i,
-                        model,
-                        dt,
-                        history,
-                    )
-                };
-                if hit.is_none() {
-                    *history = History::default();
-                }
-                hit
+                (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k])
+            })
+            .filter_map(|i| {
+                let mut h = history[i];
+                let hit = contact(skin_ro, &grid, &half_thickness, parts, i, model, dt, &mut h);
+                hit.map(|hit| (i, hit, h))
             })
             .collect();
+        // A contact that opened starts from zero history: every particle
+        // not touching now gets it back.
+        for &i in &self.touching {
+            self.history[i as usize] = History::default();
+        }
+        self.touching.clear();
         let mut out = Exchange::default();
-        for (i, hit) in hits.into_iter().enumerate() {
-            let Some(hit) = hit else { continue };
+        for (i, hit, h) in hits {
+            self.history[i] = h;
+            self.touching.push(i as u32);
             let cf = hit.force;
             particles.force_n[i] += cf.force_n;
             particles.torque_n_m[i] +=
@@ -306,6 +306,11 @@ fn contact<S: StrainEnergy>(
     // Closest triangle among the candidates in the particle's cell.
     let mut best: Option<(f64, usize, Vector3<f64>, [f64; 3])> = None;
     for &k in grid.candidates(&p) {
+        // Outside the triangle's box grown by the reach, it is farther than
+        // r + half its thickness: skip the exact distance.
+        if !grid.within_box(k, &p) {
+            continue;
+        }
         let x = skin.elements[k].nodes.map(|a| skin.position_m[a]);
         let (q, w) = closest_point_on_triangle(&p, x);
         let dist = (p - q).norm();
@@ -361,6 +366,8 @@ struct TriangleGrid {
     bounds: (Vector3<f64>, Vector3<f64>),
     cell_m: f64,
     cells: HashMap<[i64; 3], Vec<usize>>,
+    /// Each triangle's bounding box grown by the reach (m).
+    boxes: Vec<(Vector3<f64>, Vector3<f64>)>,
 }
 
 impl TriangleGrid {
@@ -402,7 +409,16 @@ impl TriangleGrid {
             bounds,
             cell_m,
             cells,
+            boxes,
         }
+    }
+
+    /// Whether `p` lies in triangle `k`'s grown box (every point within the
+    /// reach of the triangle does).
+    #[inline]
+    fn within_box(&self, k: usize, p: &Vector3<f64>) -> bool {
+        let (lo, hi) = &self.boxes[k];
+        (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a])
     }
 
     fn key(cell_m: f64, x: &Vector3<f64>) -> [i64; 3] {
