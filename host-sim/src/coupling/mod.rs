@@ -187,23 +187,20 @@ impl<S: StrainEnergy> Coupling<S> {
         let skin_ro: &Skin<S> = skin;
         let history = &self.history;
         // Only the particles in the box of the skin's reach can touch it (a
-        // few hundred of thousands): their contacts in parallel, each from
-        // its own history, collected in particle order and applied below in
-        // that order, so the sums do not depend on threads.
+        // few hundred of the bed's thousands): their contacts in parallel,
+        // each from its own history, collected in particle order and applied
+        // below in that order, so the sums do not depend on threads.
         let hits: Vec<(usize, Hit, History)> = (0..n)
             .into_par_iter()
-            .filter(|&i| {
-                let p = parts.position_m[i];
-                (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k])
-            })
+            .filter(|&i| in_box(&parts.position_m[i], &lo, &hi))
             .filter_map(|i| {
                 let mut h = history[i];
                 let hit = contact(skin_ro, &grid, &half_thickness, parts, i, model, dt, &mut h);
                 hit.map(|hit| (i, hit, h))
             })
             .collect();
-        // A contact that opened starts from zero history: every particle
-        // not touching now gets it back.
+        // A contact starts from zero history: the last exchange's contacts
+        // are cleared, and those still touching get their advanced history.
         for &i in &self.touching {
             self.history[i as usize] = History::default();
         }
@@ -359,6 +356,12 @@ fn contact<S: StrainEnergy>(
     })
 }
 
+/// Whether `p` lies in the box from `lo` to `hi` (closed).
+#[inline]
+fn in_box(p: &Vector3<f64>, lo: &Vector3<f64>, hi: &Vector3<f64>) -> bool {
+    (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a])
+}
+
 /// Triangles binned on a uniform grid by their bounding boxes grown by the
 /// contact reach, so a particle only tests the triangles of its own cell.
 struct TriangleGrid {
@@ -418,7 +421,7 @@ impl TriangleGrid {
     #[inline]
     fn within_box(&self, k: usize, p: &Vector3<f64>) -> bool {
         let (lo, hi) = &self.boxes[k];
-        (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a])
+        in_box(p, lo, hi)
     }
 
     fn key(cell_m: f64, x: &Vector3<f64>) -> [i64; 3] {

@@ -199,10 +199,9 @@ impl Blocks {
     /// times its learnt rate: at each split the rates of a block's
     /// particles are scaled by the square root of how long the block took
     /// since the last split against its estimate (relative to the mean), so
-    /// a block that
-    /// ran long gives up particles until the times agree. Timing only moves
-    /// the split, and the forces do not depend on it: the results stay the
-    /// same bits.
+    /// a block that ran long gives up particles until the times agree.
+    /// Timing only moves the split, and the forces do not depend on it: the
+    /// results stay the same bits.
     fn split(&mut self, list: &NeighbourList, count: usize) {
         let n = list.start.len().saturating_sub(1);
         let count = count.clamp(1, n.max(1));
@@ -288,10 +287,11 @@ impl Blocks {
     /// had more than one block and was timed.
     fn measured_rates(&self, n: usize) -> Option<(Vec<usize>, Vec<f64>)> {
         let count = self.work.len();
-        if count < 2 || self.first.len() != count + 1 || self.first[count] != n {
-            return None;
-        }
-        if self.rate.len() != n {
+        if count < 2
+            || self.first.len() != count + 1
+            || self.first[count] != n
+            || self.rate.len() != n
+        {
             return None;
         }
         let spent: u64 = self.spent_ns.iter().sum();
