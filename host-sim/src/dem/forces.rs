@@ -146,21 +146,10 @@ impl<'a> PairRun<'a> {
                 }
             }
             let f = model.evaluate(&g, dt_s, &mut h);
-            let h = h.map(|c| c.0);
-            let vec = |v: Vector3<Lanes>| [v.x.0, v.y.0, v.z.0];
-            let (fo, tp, ro) = (
-                vec(f.force_n),
-                vec(f.torque_per_radius_n),
-                vec(f.rolling_torque_n_m),
-            );
             for (l, &s) in batch.iter().enumerate().take(which.len() - first) {
-                self.history[s] = h.map(|c| c[l]);
+                self.history[s] = h.map(|c| c.0[l]);
                 self.open[s] = 1;
-                put(ContactForce {
-                    force_n: Vector3::new(fo[0][l], fo[1][l], fo[2][l]),
-                    torque_per_radius_n: Vector3::new(tp[0][l], tp[1][l], tp[2][l]),
-                    rolling_torque_n_m: Vector3::new(ro[0][l], ro[1][l], ro[2][l]),
-                });
+                put(f.lane(l));
             }
         }
     }
@@ -658,28 +647,6 @@ fn wall_geometry(p: &Particles, i: usize, wall: &Wall) -> Option<ContactGeometry
     ))
 }
 
-/// Four scalar contact geometries as one of four lanes.
-#[inline(always)]
-fn geometry_lanes(g: &[ContactGeometry; LANE_COUNT]) -> ContactGeometry<Lanes> {
-    let lanes = |f: fn(&ContactGeometry) -> f64| Lanes(std::array::from_fn(|l| f(&g[l])));
-    let vec3 = |f: fn(&ContactGeometry) -> Vector3<f64>| {
-        Vector3::new(
-            Lanes(std::array::from_fn(|l| f(&g[l]).x)),
-            Lanes(std::array::from_fn(|l| f(&g[l]).y)),
-            Lanes(std::array::from_fn(|l| f(&g[l]).z)),
-        )
-    };
-    ContactGeometry {
-        normal: vec3(|g| g.normal),
-        overlap_m: lanes(|g| g.overlap_m),
-        radius_eff_m: lanes(|g| g.radius_eff_m),
-        mass_eff_kg: lanes(|g| g.mass_eff_kg),
-        normal_velocity_m_s: lanes(|g| g.normal_velocity_m_s),
-        tangential_velocity_m_s: vec3(|g| g.tangential_velocity_m_s),
-        relative_spin_rad_s: vec3(|g| g.relative_spin_rad_s),
-    }
-}
-
 /// One wall-pass chunk (particles from `lo`): what it reads.
 struct WallChunk<'a> {
     params: &'a Params,
@@ -781,7 +748,7 @@ impl WallChunk<'_> {
         wp: &mut [Vector3<f64>],
     ) {
         let stride = self.params.walls.len().max(1);
-        let g = geometry_lanes(&batch.g);
+        let g = ContactGeometry::<Lanes>::gather(&batch.g);
         let mut h = [Lanes::splat(0.0); HISTORY_LEN];
         for (l, &k) in batch.k.iter().enumerate() {
             for (h, &v) in h.iter_mut().zip(&wh[k * stride + w]) {
@@ -792,12 +759,10 @@ impl WallChunk<'_> {
         let cf = model.evaluate(&g, self.params.dt_s, &mut h);
         for (l, &k) in batch.k.iter().enumerate().take(batch.len) {
             wh[k * stride + w] = h.map(|c| c.0[l]);
-            let lane = |v: &Vector3<Lanes>| Vector3::new(v.x.0[l], v.y.0[l], v.z.0[l]);
-            let force = lane(&cf.force_n);
-            f[k] += force;
-            t[k] += lane(&cf.torque_per_radius_n) * self.p.radius_m[self.lo + k]
-                + lane(&cf.rolling_torque_n_m);
-            wp[w] -= force;
+            let cf = cf.lane(l);
+            f[k] += cf.force_n;
+            t[k] += cf.torque_per_radius_n * self.p.radius_m[self.lo + k] + cf.rolling_torque_n_m;
+            wp[w] -= cf.force_n;
         }
     }
 

@@ -306,6 +306,43 @@ impl ContactGeometry {
     }
 }
 
+impl ContactGeometry<Lanes> {
+    /// [`LANE_COUNT`] contacts' geometries as one, contact l in lane l.
+    #[inline(always)]
+    pub fn gather(g: &[ContactGeometry; LANE_COUNT]) -> Self {
+        let lanes = |f: fn(&ContactGeometry) -> f64| Lanes(std::array::from_fn(|l| f(&g[l])));
+        let vec3 = |f: fn(&ContactGeometry) -> Vector3<f64>| {
+            Vector3::new(
+                Lanes(std::array::from_fn(|l| f(&g[l]).x)),
+                Lanes(std::array::from_fn(|l| f(&g[l]).y)),
+                Lanes(std::array::from_fn(|l| f(&g[l]).z)),
+            )
+        };
+        ContactGeometry {
+            normal: vec3(|g| g.normal),
+            overlap_m: lanes(|g| g.overlap_m),
+            radius_eff_m: lanes(|g| g.radius_eff_m),
+            mass_eff_kg: lanes(|g| g.mass_eff_kg),
+            normal_velocity_m_s: lanes(|g| g.normal_velocity_m_s),
+            tangential_velocity_m_s: vec3(|g| g.tangential_velocity_m_s),
+            relative_spin_rad_s: vec3(|g| g.relative_spin_rad_s),
+        }
+    }
+}
+
+impl ContactForce<Lanes> {
+    /// What the contact in lane `l` exerts.
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> ContactForce {
+        let of = |v: &Vector3<Lanes>| Vector3::new(v.x.0[l], v.y.0[l], v.z.0[l]);
+        ContactForce {
+            force_n: of(&self.force_n),
+            torque_per_radius_n: of(&self.torque_per_radius_n),
+            rolling_torque_n_m: of(&self.rolling_torque_n_m),
+        }
+    }
+}
+
 /// `a` where `cond` holds and `b` elsewhere, per lane.
 #[inline(always)]
 pub(crate) fn select3<T: Real>(cond: T::Mask, a: Vector3<T>, b: Vector3<T>) -> Vector3<T> {
@@ -378,19 +415,7 @@ mod tests {
                 };
                 (g, [u() * 2e-6, u() * 2e-6, u() * 2e-6])
             });
-            let lane = |f: &dyn Fn(&ContactGeometry) -> f64| Lanes(one.map(|(g, _)| f(&g)));
-            let lane3 = |f: &dyn Fn(&ContactGeometry) -> Vector3<f64>| {
-                Vector3::new(lane(&|g| f(g).x), lane(&|g| f(g).y), lane(&|g| f(g).z))
-            };
-            let g4 = ContactGeometry {
-                normal: lane3(&|g| g.normal),
-                overlap_m: lane(&|g| g.overlap_m),
-                radius_eff_m: lane(&|g| g.radius_eff_m),
-                mass_eff_kg: lane(&|g| g.mass_eff_kg),
-                normal_velocity_m_s: lane(&|g| g.normal_velocity_m_s),
-                tangential_velocity_m_s: lane3(&|g| g.tangential_velocity_m_s),
-                relative_spin_rad_s: lane3(&|g| g.relative_spin_rad_s),
-            };
+            let g4 = ContactGeometry::<Lanes>::gather(&one.map(|(g, _)| g));
             let mut h4: [Lanes; HISTORY_LEN] =
                 std::array::from_fn(|c| Lanes(one.map(|(_, h)| h[c])));
             let f4 = model.evaluate(&g4, 1.5e-5, &mut h4);
@@ -398,16 +423,10 @@ mod tests {
                 let mut h = *h;
                 let f = model.evaluate(g, 1.5e-5, &mut h);
                 let bits = |v: Vector3<f64>| v.map(f64::to_bits);
-                let lane_of = |v: Vector3<Lanes>| Vector3::new(v.x.0[l], v.y.0[l], v.z.0[l]);
-                assert_eq!(bits(f.force_n), bits(lane_of(f4.force_n)));
-                assert_eq!(
-                    bits(f.torque_per_radius_n),
-                    bits(lane_of(f4.torque_per_radius_n))
-                );
-                assert_eq!(
-                    bits(f.rolling_torque_n_m),
-                    bits(lane_of(f4.rolling_torque_n_m))
-                );
+                let fl = f4.lane(l);
+                assert_eq!(bits(f.force_n), bits(fl.force_n));
+                assert_eq!(bits(f.torque_per_radius_n), bits(fl.torque_per_radius_n));
+                assert_eq!(bits(f.rolling_torque_n_m), bits(fl.rolling_torque_n_m));
                 assert_eq!(h.map(f64::to_bits), h4.map(|c| c.0[l].to_bits()));
                 let ft = f.force_n - g.normal * f.force_n.dot(&g.normal);
                 let fncrit = (f.force_n.dot(&g.normal)).abs();
