@@ -28,7 +28,7 @@ mod firmware {
     use urechis::board::link::{rx_task, tx_task, BAUD_RATE, RX_RING_BYTES};
     use urechis::board::pump::{pump_task, Pump};
     use urechis::board::sensor::{sensor_task, Sensor, MODEL, OSR};
-    use urechis::controller::{Controller, Fault, Params};
+    use urechis::controller::{Controller, Fault};
     use urechis::drivers::pump::{PumpConfig, PumpPins};
     use urechis::table::generated::TABLE;
 
@@ -141,7 +141,7 @@ mod firmware {
         static RX_RING: StaticCell<[u8; RX_RING_BYTES]> = StaticCell::new();
         let rx = rx.into_ring_buffered(RX_RING.init([0; RX_RING_BYTES]));
 
-        let mut controller = Controller::new(Params::DEFAULT, TABLE);
+        let mut controller = Controller::with_default_params(TABLE);
         if csr.wdgrstf() {
             // The last run's control loop starved the watchdog: come back up
             // latched in the safe state, not in Idle.

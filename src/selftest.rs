@@ -338,14 +338,15 @@ pub struct Bench<'t> {
 }
 
 impl<'t> Bench<'t> {
-    /// A bench at t = 1000 ms with a fresh controller.
-    pub fn new(params: Params, table: Table<'t>, plant: Plant) -> Self {
-        Self {
-            ctrl: Controller::new(params, table),
+    /// A bench at t = 1000 ms with a fresh controller; invalid `params`
+    /// are refused as the controller refuses them.
+    pub fn new(params: Params, table: Table<'t>, plant: Plant) -> Result<Self, &'static str> {
+        Ok(Self {
+            ctrl: Controller::new(params, table).map_err(|_| "bench params refused")?,
             plant,
             now_ms: 1000,
             last: None,
-        }
+        })
     }
 
     /// One control step with an optional command; the plant then runs one
@@ -456,7 +457,7 @@ fn normal_cycles(depth_mm: f32) -> Result<(), &'static str> {
         cycles: CYCLES,
         ..Params::DEFAULT
     };
-    let mut bench = Bench::new(params, store.table(), Plant::new(law, depth_mm));
+    let mut bench = Bench::new(params, store.table(), Plant::new(law, depth_mm))?;
     bench.start()?;
     let rest_ml = bench.ctrl.rest_volume_ml();
     let start_ms = bench.last_step_ms();
@@ -567,7 +568,7 @@ fn plateau_stops_expansion_early() -> Result<(), &'static str> {
         cycles: 1,
         ..Params::DEFAULT
     };
-    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm));
+    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm))?;
     bench.start()?;
     let out = bench.run_until(
         400,
@@ -633,7 +634,7 @@ fn stop_shrinks_then_idles() -> Result<(), &'static str> {
     };
     let store = LawTable::new(law);
     let params = Params::DEFAULT;
-    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm));
+    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm))?;
     bench.start()?;
     let rest_ml = bench.ctrl.rest_volume_ml();
     bench.run_until(
@@ -682,7 +683,7 @@ fn set_params_rejected_whole() -> Result<(), &'static str> {
         rise_mm: SLOW_RISE_MM,
     };
     let store = LawTable::new(law);
-    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(law, 40.0));
+    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(law, 40.0))?;
     bench.step(None);
     // A valid set, different in every field, except one field broken.
     let mut good = Params::DEFAULT;
@@ -761,7 +762,7 @@ fn bad_table_refuses_start() -> Result<(), &'static str> {
     let store = LawTable::new(law);
     let mut table = store.table();
     table.checksum ^= 1;
-    let mut bench = Bench::new(Params::DEFAULT, table, Plant::new(law, 40.0));
+    let mut bench = Bench::new(Params::DEFAULT, table, Plant::new(law, 40.0))?;
     for _ in 0..3 {
         bench.step(None);
     }
@@ -780,7 +781,7 @@ fn bad_table_refuses_start() -> Result<(), &'static str> {
     )?;
     let mut short = store.table();
     short.pressure_kpa = &[1.0, 2.0];
-    let mut other = Controller::new(Params::DEFAULT, short);
+    let mut other = Controller::with_default_params(short);
     let out = other.step(&Inputs {
         now_ms: 0,
         pressure: PressureSample::Reading {
@@ -823,7 +824,7 @@ fn expanding<'t>(
     let law = SandLaw {
         rise_mm: SLOW_RISE_MM,
     };
-    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm));
+    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm))?;
     bench.start()?;
     bench.run_until(
         300,
@@ -1001,7 +1002,7 @@ fn fault_leak() -> Result<(), &'static str> {
     let law = SandLaw {
         rise_mm: SLOW_RISE_MM,
     };
-    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm));
+    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm))?;
     bench.start()?;
     let out = bench.run_until(400, |o, _| o.state == State::Hold, "never reached Hold")?;
     let mut peak_kpa = out.telemetry.pressure_kpa;
@@ -1042,7 +1043,7 @@ fn fault_volume_limit() -> Result<(), &'static str> {
     let law = SandLaw {
         rise_mm: SLOW_RISE_MM,
     };
-    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm));
+    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm))?;
     bench.start()?;
     bench.run_until(300, |_, p| p.pump_ml > 2.9, "never pumped 2.9 mL")?;
     let mut healthy_ms = bench.last_step_ms();
@@ -1091,7 +1092,7 @@ fn fault_diameter_mismatch() -> Result<(), &'static str> {
     let mut plant = Plant::new(law, params.depth_mm);
     // Air in the line: only 30 % of the pumped water swells the head.
     plant.compliance = 0.3;
-    let mut bench = Bench::new(params, store.table(), plant);
+    let mut bench = Bench::new(params, store.table(), plant)?;
     bench.start()?;
     let mut healthy_ms = bench.last_step_ms();
     let out = bench.run_until(
@@ -1160,7 +1161,7 @@ fn fault_control_overrun() -> Result<(), &'static str> {
 /// CRC-32 over every output of a three-cycle run at 40 mm (all fields,
 /// floats by their bits). Host and Cortex-M4 must print the same number:
 /// the controller's arithmetic is the same IEEE f32 and `libm` on both.
-pub fn normal_cycle_trace_crc32() -> u32 {
+pub fn normal_cycle_trace_crc32() -> Result<u32, &'static str> {
     let law = SandLaw {
         rise_mm: SLOW_RISE_MM,
     };
@@ -1169,7 +1170,7 @@ pub fn normal_cycle_trace_crc32() -> u32 {
         cycles: 3,
         ..Params::DEFAULT
     };
-    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm));
+    let mut bench = Bench::new(params, store.table(), Plant::new(law, params.depth_mm))?;
     let mut digest = CHECKSUM_ALGORITHM.digest();
     for k in 0..2000u32 {
         let command = (k == 3).then_some(Command::Start);
@@ -1200,5 +1201,5 @@ pub fn normal_cycle_trace_crc32() -> u32 {
         digest.update(&t.t_ms.to_le_bytes());
         digest.update(&t.cycle.to_le_bytes());
     }
-    digest.finalize()
+    Ok(digest.finalize())
 }

@@ -50,14 +50,9 @@ scenario_tests!(
 
 #[test]
 fn trace_crc_is_deterministic() {
-    assert_eq!(
-        selftest::normal_cycle_trace_crc32(),
-        selftest::normal_cycle_trace_crc32()
-    );
-    println!(
-        "normal_cycle_trace_crc32 = {:#010x}",
-        selftest::normal_cycle_trace_crc32()
-    );
+    let crc = selftest::normal_cycle_trace_crc32().unwrap();
+    assert_eq!(crc, selftest::normal_cycle_trace_crc32().unwrap());
+    println!("normal_cycle_trace_crc32 = {crc:#010x}");
 }
 
 // ---------------------------------------------------------------------------
@@ -80,7 +75,7 @@ fn reading(pressure_kpa: f32, taken_ms: u32) -> PressureSample {
 #[test]
 fn start_refused_while_a_cause_is_present_and_idle_does_not_latch_it() {
     let store = LawTable::new(slow());
-    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0));
+    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0)).unwrap();
     // No sample yet: the bus monitor counts Missing.
     bench.plant.sample_override = Some(PressureSample::Missing);
     let out = bench.step(Some(Command::Start));
@@ -122,7 +117,7 @@ fn start_refused_while_a_cause_is_present_and_idle_does_not_latch_it() {
 #[test]
 fn command_results_by_state() {
     let store = LawTable::new(slow());
-    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0));
+    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0)).unwrap();
     bench.step(None);
     assert_eq!(
         bench.step(Some(Command::Reset)).command_result,
@@ -144,15 +139,25 @@ fn command_results_by_state() {
 }
 
 #[test]
-fn invalid_initial_params_fall_back_to_default() {
+fn invalid_initial_params_are_refused_by_name() {
     let store = LawTable::new(slow());
     let bad = Params {
         expand_rate_ml_per_s: f32::NAN,
         ..Params::DEFAULT
     };
-    let ctrl = Controller::new(bad, store.table());
-    assert_eq!(*ctrl.params(), Params::DEFAULT);
+    let Err(err) = Controller::new(bad, store.table()) else {
+        panic!("NaN rate accepted");
+    };
+    assert_eq!(err.field, ParamField::ExpandRateMlPerS);
+    let good = Params {
+        cycles: 2,
+        ..Params::DEFAULT
+    };
+    let ctrl = Controller::new(good, store.table()).expect("valid set refused");
+    assert_eq!(*ctrl.params(), good);
     assert_eq!(ctrl.table_status(), Ok(()));
+    let ctrl = Controller::with_default_params(store.table());
+    assert_eq!(*ctrl.params(), Params::DEFAULT);
 }
 
 #[test]
@@ -162,7 +167,7 @@ fn a_cycle_across_the_clock_wrap_runs_normally() {
         cycles: 1,
         ..Params::DEFAULT
     };
-    let mut bench = Bench::new(params, store.table(), Plant::new(slow(), 40.0));
+    let mut bench = Bench::new(params, store.table(), Plant::new(slow(), 40.0)).unwrap();
     bench.now_ms = u32::MAX - 2_000;
     bench.start().unwrap();
     let out = bench
@@ -179,7 +184,7 @@ fn a_cycle_across_the_clock_wrap_runs_normally() {
 #[test]
 fn cycles_zero_runs_until_stop() {
     let store = LawTable::new(slow());
-    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0));
+    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0)).unwrap();
     bench.start().unwrap();
     bench.run_until(5000, |_, _| false, "").ok();
     let cycles = bench.ctrl.cycle();
@@ -211,7 +216,7 @@ fn frozen_reading_at_constant_volume_is_normal_but_not_while_pumping() {
         hold_ms: 2000,
         ..Params::DEFAULT
     };
-    let mut bench = Bench::new(params, store.table(), Plant::new(slow(), 40.0));
+    let mut bench = Bench::new(params, store.table(), Plant::new(slow(), 40.0)).unwrap();
     bench.start().unwrap();
     bench
         .run_until(1000, |o, _| o.state == State::Hold, "no hold")
@@ -236,7 +241,7 @@ fn interleaved_bus_errors_below_the_count_are_tolerated() {
         cycles: 1,
         ..Params::DEFAULT
     };
-    let mut bench = Bench::new(params, store.table(), Plant::new(slow(), 40.0));
+    let mut bench = Bench::new(params, store.table(), Plant::new(slow(), 40.0)).unwrap();
     bench.start().unwrap();
     for k in 0..1000u32 {
         // Two failed reads out of every three.
@@ -268,7 +273,7 @@ fn defaults_run_clean_cycles_on_the_generated_table() {
             cycles: 2,
             ..Params::DEFAULT
         };
-        let mut ctrl = Controller::new(params, table);
+        let mut ctrl = Controller::new(params, table).unwrap();
         let (mut pump_ml, mut now_ms, mut dither) = (0.0_f32, 0_u32, 1.0_f32);
         let mut max_mm = 0.0_f32;
         let mut ends = Vec::new();
@@ -322,7 +327,8 @@ fn defaults_run_clean_cycles_on_the_generated_table() {
 fn garbage_volume_while_expanding_is_a_volume_fault_not_a_stall() {
     for garbage in [f32::NAN, 1e30, f32::INFINITY, -1e30] {
         let store = LawTable::new(slow());
-        let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0));
+        let mut bench =
+            Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0)).unwrap();
         bench.start().unwrap();
         bench
             .run_until(
@@ -345,7 +351,7 @@ fn garbage_volume_while_expanding_is_a_volume_fault_not_a_stall() {
 fn a_fault_latched_at_boot_holds_the_safe_state_until_reset() {
     // The board latches ControlOverrun after a watchdog reset.
     let store = LawTable::new(slow());
-    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0));
+    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(slow(), 40.0)).unwrap();
     bench.ctrl.latch_fault(Fault::ControlOverrun);
     for _ in 0..5 {
         let out = bench.step(Some(Command::Start));

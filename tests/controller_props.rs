@@ -158,7 +158,7 @@ fn sequence_strategy() -> impl Strategy<Value = Vec<Event>> {
 fn inputs_for(start_ms: u32, events: &[Event]) -> Vec<Inputs> {
     let zone = ExpansionZone::of(&TABLE);
     let (mut now_ms, mut pump_ml) = (start_ms, 0.0_f32);
-    let mut ctrl = Controller::new(Params::DEFAULT, TABLE);
+    let mut ctrl = Controller::with_default_params(TABLE);
     let mut out = Vec::with_capacity(events.len());
     for e in events {
         now_ms = now_ms.wrapping_add(e.dt_ms);
@@ -194,8 +194,8 @@ fn inputs_for(start_ms: u32, events: &[Event]) -> Vec<Inputs> {
 
 fn check_sequence(start_ms: u32, events: &[Event]) -> Result<(), TestCaseError> {
     let inputs = inputs_for(start_ms, events);
-    let mut ctrl = Controller::new(Params::DEFAULT, TABLE);
-    let mut replay = Controller::new(Params::DEFAULT, TABLE);
+    let mut ctrl = Controller::with_default_params(TABLE);
+    let mut replay = Controller::with_default_params(TABLE);
     let mut prev_state = ctrl.state();
     let mut prev_now: Option<u32> = None;
     for (k, i) in inputs.iter().enumerate() {
@@ -300,7 +300,7 @@ fn random_sequences_reach_every_state() {
     let mut resets_accepted = 0;
     for _ in 0..200 {
         let events = strategy.new_tree(&mut runner).unwrap().current();
-        let mut ctrl = Controller::new(Params::DEFAULT, TABLE);
+        let mut ctrl = Controller::with_default_params(TABLE);
         let mut prev = State::Idle;
         for i in inputs_for(0, &events) {
             let out = ctrl.step(&i);

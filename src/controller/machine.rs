@@ -5,7 +5,7 @@
 use super::bounds::{CONTROL_OVERRUN_LIMIT_MS, CONTROL_PERIOD_MS};
 use super::geometry::ExpansionZone;
 use super::monitors::{LeakMonitor, MismatchMonitor, SensorMonitor, StallMonitor};
-use super::params::Params;
+use super::params::{ParamError, Params};
 use super::plateau::PlateauDetector;
 use super::types::{Command, CommandError, Fault, Inputs, Outputs, PumpCommand, State, Telemetry};
 use crate::table::{Table, TableError};
@@ -66,14 +66,22 @@ impl<'t> Controller<'t> {
     /// A controller in [`State::Idle`] with `params` and the compiled-in
     /// `table`, verified once here. A table that fails verification leaves
     /// the controller usable (monitors, telemetry) but `Start` is refused
-    /// with [`CommandError::BadTable`]. Invalid `params` are replaced by
-    /// [`Params::DEFAULT`] (the firmware never runs an unchecked set).
-    pub fn new(params: Params, table: Table<'t>) -> Self {
-        let params = if params.validate().is_ok() {
-            params
-        } else {
-            Params::DEFAULT
-        };
+    /// with [`CommandError::BadTable`]. Invalid `params` are refused, naming
+    /// the first field out of range: the firmware never runs an unchecked
+    /// set, and never swaps in another one unasked.
+    pub fn new(params: Params, table: Table<'t>) -> Result<Self, ParamError> {
+        params.validate()?;
+        Ok(Self::checked(params, table))
+    }
+
+    /// A controller with [`Params::DEFAULT`] (valid: `params.rs` tests it)
+    /// and `table`, as [`Controller::new`]; what the board boots with.
+    pub fn with_default_params(table: Table<'t>) -> Self {
+        Self::checked(Params::DEFAULT, table)
+    }
+
+    /// The controller over `params` already validated.
+    fn checked(params: Params, table: Table<'t>) -> Self {
         Self {
             params,
             table,

@@ -6,7 +6,7 @@
 
 use anyhow::Result;
 use urechis::controller::{
-    Command, Controller, ExpandEnd, Inputs, Outputs, Params, State, CONTROL_PERIOD_MS,
+    Command, Controller, ExpandEnd, Inputs, Outputs, State, CONTROL_PERIOD_MS,
 };
 use urechis::table::generated::TABLE;
 
@@ -67,7 +67,7 @@ impl Trace {
 /// Fault) plus its tail, or its time limit.
 pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
     let mut plant = Plant::new(&scenario.plant, scenario.depth_mm, seed)?;
-    let mut ctrl = Controller::new(Params::DEFAULT, TABLE);
+    let mut ctrl = Controller::with_default_params(TABLE);
     let mut steps = Vec::new();
     let mut injected = Vec::new();
     let mut pending: Vec<_> = scenario.injections.clone();

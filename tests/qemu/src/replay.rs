@@ -30,7 +30,7 @@
 //! ```
 
 use urechis::controller::{
-    Command, CommandError, Controller, EndStops, Fault, Inputs, Outputs, Params, PressureSample,
+    Command, CommandError, Controller, EndStops, Fault, Inputs, Outputs, PressureSample,
     PumpCommand, State, CONTROL_PERIOD_MS,
 };
 use urechis::protocol::{decode_frame, encode, ProtocolError, MAX_FRAME};
@@ -455,7 +455,7 @@ pub fn check(bytes: &[u8], table: Table<'_>) -> Result<Summary, ReplayError> {
             compiled: table.checksum,
         });
     }
-    let mut ctrl = Controller::new(Params::DEFAULT, table);
+    let mut ctrl = Controller::with_default_params(table);
     let mut now_ms = 0u32;
     let mut volume_bits = 0u32;
     let mut rate_bits = 0u32;
