@@ -11,7 +11,7 @@ use host_sim::emulate::replay::{
 };
 use host_sim::emulate::{named, run, Trace, DEFAULT_SEED};
 use host_sim::experiment::Experiment;
-use host_sim::sand::ParametricSand;
+use host_sim::sand::{ParametricSand, SolverSand};
 use urechis::controller::{
     detection_bound_ms, ExpansionZone, Fault, Params, PumpCommand, State, CONTROL_PERIOD_MS,
     PLATEAU_CONFIRM_SAMPLES, PLATEAU_WINDOW_SAMPLES,
@@ -64,7 +64,10 @@ fn assert_safe_after_fault(trace: &Trace) {
 /// value at D0: p_e = σ'v(K0 + (N − K0)·tanh(x/ΔDc)) and dV/dD = π·L·D/2,
 /// so the ratio is sech²(x/ΔDc)·D0/D (bisection).
 fn plateau_diameter_mm(fraction: f64) -> f64 {
-    let sand = ParametricSand::calibrated_to_balloon().params;
+    // The plant's sand: the parametric law fitted to the committed solver
+    // results, as the model's baseline builds it.
+    let solver = SolverSand::committed().unwrap();
+    let sand = ParametricSand::fitted_to_solver(&solver).params;
     let d0 = sand.initial_diameter_mm;
     let ratio = |d: f64| {
         let c = ((d - d0) / sand.characteristic_diameter_increase_mm).cosh();
@@ -101,10 +104,11 @@ fn assert_normal(name: &str, depth_mm: f64) {
     // detector's lag: a window, the confirmation and one period of pumping.
     // Either pressure rule may end it there, never the pumped volume: the
     // plateau detector, or the table's diameter estimate reaching the
-    // target first. The plant's parametric sand levels off by ≈ 22 mm while
-    // the table's (the solver's rows) still rises to ≈ 24.5 mm, so on the
-    // plateau the pressure reads a diameter 1.5–2.5 mm high and, with the
-    // stiff-grain solver data at 40 mm, crosses 25 mm in some cycles.
+    // target first. The plant's parametric sand is fitted to the solver's
+    // rows along D with one N and one ΔDc for all depths; at 40 mm it sits
+    // 6–13 % above them, and where the table's p_i(D) is nearly flat that
+    // reads a diameter ≈ 1.8 mm high, so at 40 mm the table's estimate
+    // reaches 25 mm in most cycles; at 100 mm the plateau rule ends them.
     let params = trace.scenario.params;
     assert_eq!(o.expand_ends.len(), 20);
     for end in &o.expand_ends {
@@ -184,9 +188,12 @@ fn blocked_compliant_line_stops_on_the_table_then_faults_on_suction() {
         trace.scenario.plant.sensor.max_sample_age_ms(),
     );
     assert_safe_after_fault(&trace);
-    // The blocked expansion ends on the table: the line's pressure says
-    // the head reached the target long before the limit.
-    assert_eq!(o.expand_ends, ["Plateau", "TableTarget"]);
+    // The first, normal expansion ends by a pressure rule (as at 40 mm in
+    // `assert_normal`); the blocked one on the table: the line's pressure
+    // says the head reached the target long before the limit.
+    assert_eq!(o.expand_ends.len(), 2);
+    assert!(["Plateau", "TableTarget"].contains(&o.expand_ends[0].as_str()));
+    assert_eq!(o.expand_ends[1], "TableTarget");
     assert!(o.over_limit.peak_kpa < 0.5 * o.over_limit.limit_kpa);
     assert_eq!(o.over_limit.longest_ms, 0);
 }

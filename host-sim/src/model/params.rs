@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::sand::SandParams;
+use crate::sand::{ParametricSand, SolverSand};
 
 /// One fitted parameter: name (the key in files and JSON), unit, bounds and
 /// default (the start of a calibration).
@@ -31,10 +31,17 @@ impl ParamSpec {
     }
 }
 
-/// Default rise length of the sand law (mm): the parametric law's own
-/// (tanh at 0.95 at [`RISE_DONE_DIAMETER_MM`] for the paper's D0).
-pub fn default_sand_rise_mm() -> f64 {
-    SandParams::paper_uncalibrated().characteristic_diameter_increase_mm
+/// Default rise length of the sand law (mm): ΔDc of the parametric law
+/// fitted along D to the committed solver results
+/// ([`ParametricSand::fitted_to_solver`]), the sand the firmware table is
+/// made from; `None` if those results do not load.
+pub fn default_sand_rise_mm() -> Option<f64> {
+    let solver = SolverSand::committed().ok()?;
+    Some(
+        ParametricSand::fitted_to_solver(&solver)
+            .params
+            .characteristic_diameter_increase_mm,
+    )
 }
 
 /// The baseline's uncertain parameters, in [`Params::to_vec`] order.
@@ -70,9 +77,10 @@ pub const BASELINE_PARAMS: [ParamSpec; 4] = [
         unit: "mm",
         lower: 0.1,
         upper: 20.0,
-        // (22 − 18.7)/atanh(0.95); a const fn cannot call atanh, the test
-        // below checks it against the sand module's value.
-        default: 1.801_525_574_702_024,
+        // The solver fit's ΔDc: a const cannot run the fit, so the test
+        // below checks this against it; regenerating the solver's data
+        // (`host-sim solver-sand`) changes it.
+        default: 2.381_867_483_660_778,
         description:
             "diameter increase over which the sand goes from at rest to its limit (tanh scale)",
     },
@@ -124,13 +132,14 @@ impl Params {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sand::RISE_DONE_DIAMETER_MM;
 
     #[test]
     fn default_rise_is_the_sand_laws() {
-        let want = default_sand_rise_mm();
-        assert!((BASELINE_PARAMS[3].default - want).abs() < 1e-6, "{want}");
-        assert!((want - (RISE_DONE_DIAMETER_MM - 18.7) / 0.95_f64.atanh()).abs() < 1e-12);
+        let want = default_sand_rise_mm().expect("the committed solver data load");
+        assert!(
+            (BASELINE_PARAMS[3].default - want).abs() < 1e-9,
+            "BASELINE_PARAMS' sand_rise_mm default must be the solver fit's {want}"
+        );
         for p in BASELINE_PARAMS {
             assert!(p.lower <= p.default && p.default <= p.upper, "{}", p.name);
         }

@@ -33,8 +33,9 @@ pub mod solver;
 use serde::Serialize;
 
 pub use parametric::{
-    calibrate_limit_coefficient, BalloonPoint, Calibration, ParametricSand, SandParams,
-    BALLOON_FINAL_DIAMETER_MM, BALLOON_TABLE, FRICTION_ANGLE_DEG, RISE_DONE_DIAMETER_MM,
+    calibrate_limit_coefficient, fit_rise, BalloonPoint, Calibration, ParametricSand, RiseFit,
+    SandParams, BALLOON_FINAL_DIAMETER_MM, BALLOON_TABLE, FRICTION_ANGLE_DEG,
+    RISE_DONE_DIAMETER_MM,
 };
 pub use solver::{SolverSand, SolverSandError};
 

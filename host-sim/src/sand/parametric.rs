@@ -106,26 +106,36 @@ impl ParametricSand {
         }
     }
 
-    /// The paper's sand with N fitted to the FEM–DEM solver's results
-    /// `solver`: least squares, equal weights, on its p_e at the balloon's
-    /// final diameter at each stored depth (the same fit as
-    /// [`Self::calibrated_to_balloon`], other data).
+    /// The paper's sand with N and ΔDc fitted to the FEM–DEM solver's
+    /// results `solver` along the whole loading branch, so that the law
+    /// pushes back as the solver's sand does at every diameter, not only at
+    /// the end (the firmware table's sand is that solver's, and the
+    /// emulator's plant and the workbench's baseline are this law): least
+    /// squares over every stored row of every depth, each row's residual
+    /// taken relative to that depth's σ'v (so every depth weighs the same),
+    /// on the solver's running-max K that the table uses. p_e is linear in
+    /// N at a given ΔDc, so N is solved exactly for each ΔDc and ΔDc is
+    /// found by a golden-section search in its logarithm ([`fit_rise`]).
+    /// K0, Ka, the densities and the porosity stay the paper's: the
+    /// porosity's γ' against the solver bed's goes into N.
     pub fn fitted_to_solver(solver: &super::SolverSand) -> Self {
         let base = SandParams::paper_uncalibrated();
-        let points: Vec<BalloonPoint> = solver
+        let rows: Vec<(f64, f64)> = solver
             .curves()
             .iter()
-            .map(|c| BalloonPoint {
-                depth_mm: c.depth_mm,
-                external_pressure_kpa: solver
-                    .loading_pressure_kpa(BALLOON_FINAL_DIAMETER_MM, c.depth_mm),
-                sd_kpa: 1.0,
+            .flat_map(|c| {
+                let ratio = solver.unit_weight_kpa_per_mm() / base.buoyant_unit_weight_kpa_per_mm();
+                c.diameters_mm
+                    .iter()
+                    .zip(&c.coefficients)
+                    .map(move |(d, k)| (*d, k * ratio))
             })
             .collect();
-        let cal = calibrate_limit_coefficient(&base, &points, BALLOON_FINAL_DIAMETER_MM);
+        let fit = fit_rise(&base, &rows);
         Self {
             params: SandParams {
-                limit_coefficient: cal.limit_coefficient,
+                limit_coefficient: fit.limit_coefficient,
+                characteristic_diameter_increase_mm: fit.rise_mm,
                 ..base
             },
         }
@@ -180,7 +190,7 @@ impl SandLaw for ParametricSand {
         let s = &self.params;
         format!(
             "parametric sand K0={:.3} N={:.3} dDc={:.3} mm, \
-             gamma'={:.5} kPa/mm (N fit to the paper's balloon table)",
+             gamma'={:.5} kPa/mm",
             s.at_rest_coefficient,
             s.limit_coefficient,
             s.characteristic_diameter_increase_mm,
@@ -290,6 +300,61 @@ pub fn calibrate_limit_coefficient(
     }
 }
 
+/// A loading branch fitted to a curve ([`fit_rise`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct RiseFit {
+    /// Limit coefficient N.
+    pub limit_coefficient: f64,
+    /// Rise length ΔDc (mm).
+    pub rise_mm: f64,
+    /// Root-mean-square residual in K (the rows' unit).
+    pub rms: f64,
+}
+
+/// Fits N and ΔDc of `base`'s loading branch, K(D) = K0 + (N − K0)·tanh((D
+/// − D0)/ΔDc), to `rows` of (D in mm, K wanted) by least squares. For a
+/// given ΔDc the best N is closed-form (K is linear in N); ΔDc is searched
+/// between 0.05 and 50 mm by golden section in ln ΔDc, the residual being
+/// unimodal there for curves that rise and level off. Rows at or below D0
+/// carry no information on N and are skipped.
+pub fn fit_rise(base: &SandParams, rows: &[(f64, f64)]) -> RiseFit {
+    let (d0, k0) = (base.initial_diameter_mm, base.at_rest_coefficient);
+    let at = |rise: f64| -> RiseFit {
+        let t: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|(d, _)| *d > d0)
+            .map(|(d, k)| (((d - d0) / rise).tanh(), *k))
+            .collect();
+        // K − K0 = (N − K0)·t: the slope through the origin.
+        let (stt, sty) = t
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (t, k)| (a + t * t, b + t * (k - k0)));
+        let n = k0 + sty / stt;
+        let ss: f64 = t.iter().map(|(t, k)| (k0 + (n - k0) * t - k).powi(2)).sum();
+        RiseFit {
+            limit_coefficient: n,
+            rise_mm: rise,
+            rms: (ss / t.len().max(1) as f64).sqrt(),
+        }
+    };
+    let g = 0.5 * (5.0_f64.sqrt() - 1.0);
+    let (mut a, mut b) = (0.05_f64.ln(), 50.0_f64.ln());
+    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+    let (mut fc, mut fd) = (at(c.exp()).rms, at(d.exp()).rms);
+    for _ in 0..80 {
+        if fc < fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - g * (b - a);
+            fc = at(c.exp()).rms;
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + g * (b - a);
+            fd = at(d.exp()).rms;
+        }
+    }
+    at((0.5 * (a + b)).exp())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -340,6 +405,85 @@ mod tests {
         let cal = calibrate_limit_coefficient(&base, &points, 24.0);
         assert!((cal.limit_coefficient - 7.25).abs() < 1e-12);
         assert!(cal.chi_squared < 1e-20);
+    }
+
+    #[test]
+    fn the_rise_fit_recovers_a_known_branch() {
+        let base = SandParams::paper_uncalibrated();
+        let truth = ParametricSand {
+            params: SandParams {
+                limit_coefficient: 6.3,
+                characteristic_diameter_increase_mm: 2.7,
+                ..base
+            },
+        };
+        let rows: Vec<(f64, f64)> = (0..30)
+            .map(|i| {
+                let d = 18.7 + 0.25 * f64::from(i);
+                (d, truth.loading_coefficient(d))
+            })
+            .collect();
+        let fit = fit_rise(&base, &rows);
+        assert!((fit.limit_coefficient - 6.3).abs() < 1e-6, "{fit:?}");
+        assert!((fit.rise_mm - 2.7).abs() < 1e-6, "{fit:?}");
+        assert!(fit.rms < 1e-9, "{fit:?}");
+    }
+
+    #[test]
+    fn the_solver_fit_follows_the_stored_curves_along_d() {
+        let solver = crate::sand::SolverSand::committed().unwrap();
+        let sand = ParametricSand::fitted_to_solver(&solver);
+        // The residual in K over every stored row (what the fit minimises),
+        // against the law whose N is fitted at 25 mm only and whose ΔDc is
+        // the paper's "done by 22 mm": the whole-curve fit follows the
+        // solver's sand along D at least a quarter closer.
+        let base = SandParams::paper_uncalibrated();
+        let ends: Vec<BalloonPoint> = solver
+            .curves()
+            .iter()
+            .map(|c| BalloonPoint {
+                depth_mm: c.depth_mm,
+                external_pressure_kpa: solver.loading_pressure_kpa(25.0, c.depth_mm),
+                sd_kpa: 1.0,
+            })
+            .collect();
+        let end_only = ParametricSand {
+            params: SandParams {
+                limit_coefficient: calibrate_limit_coefficient(&base, &ends, 25.0)
+                    .limit_coefficient,
+                ..base
+            },
+        };
+        let rms = |law: &ParametricSand| {
+            let mut r = Vec::new();
+            for c in solver.curves() {
+                let sv = solver.vertical_effective_stress_kpa(c.depth_mm);
+                for &d in &c.diameters_mm {
+                    let (got, want) = (
+                        law.loading_pressure_kpa(d, c.depth_mm),
+                        solver.loading_pressure_kpa(d, c.depth_mm),
+                    );
+                    r.push(((got - want) / sv).powi(2));
+                }
+            }
+            (r.iter().sum::<f64>() / r.len() as f64).sqrt()
+        };
+        let (fitted, old) = (rms(&sand), rms(&end_only));
+        assert!(fitted < 0.75 * old, "rms K {fitted} against {old}");
+        // And the end of the expansion stays within 10 % at every depth
+        // (one N for all: the solver's K at 25 mm is 5.4 at 40 mm, 6.2 at
+        // 100 mm).
+        for c in solver.curves() {
+            let (got, want) = (
+                sand.loading_pressure_kpa(25.0, c.depth_mm),
+                solver.loading_pressure_kpa(25.0, c.depth_mm),
+            );
+            assert!(
+                (got / want - 1.0).abs() < 0.10,
+                "h {}: {got} against {want}",
+                c.depth_mm
+            );
+        }
     }
 
     #[test]
