@@ -3,10 +3,13 @@
 //! calibrate -- DEPTH_MM RADIUS_MM ROLLING DEPOSITION [quick|full] [SEED] [ABOVE_MM]
 //! [WALL_MU] [SKIN_SCALE] [AHEAD_MM] [FACE_RADIUS_MM] [ADVANCE_MM] [EXPANSION_S]
 //! [GRAIN_MODULUS_PA] [DEPOSITION_MODULUS_PA] [SHELL] [BELOW_MM] [BOX_WIDTH_MM] [ROUND]
-//! [ADVANCE_S] [AROUND ALONG]`
+//! [ADVANCE_S] [AROUND ALONG] [HOLD_S] [HEAD_HELD]`
 //! (face radius 0: one grain size; shell 1: the skin as a shell,
 //! `ScenarioSpec::with_shell`, else the membrane; below: the floor under
-//! the axis; round 1: the zone's rings kept round; advance: its duration).
+//! the axis; round 1: the zone's rings kept round; advance: its duration;
+//! around, along: the membrane's mesh, default 24 × 6; hold: the pause
+//! after the advance, the head held, before the expansion; head held 1:
+//! the head held through the expansion too).
 
 use anyhow::{Context, Result};
 use host_sim::simulate::{simulate, Options, ScenarioSpec};
@@ -49,6 +52,8 @@ fn main() -> Result<()> {
         num(20, spec.skin_mesh.0 as f64)? as usize,
         num(21, spec.skin_mesh.1 as f64)? as usize,
     );
+    spec.advance_hold_s = num(22, spec.advance_hold_s)?;
+    spec.head_held = num(23, 0.0)? != 0.0;
     let above = num(6, 0.0)? * 1e-3;
     if above > 0.0 {
         spec = spec.with_surcharge(above, 2);

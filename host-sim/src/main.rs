@@ -89,6 +89,14 @@ enum Command {
         /// from the bed at rest).
         #[arg(long = "advance-mm", default_value_t = host_sim::simulate::scenario::PAPER_ADVANCE_M * 1e3)]
         advance_mm: f64,
+        /// Pause after the advance (ms), the head held, before the zone
+        /// inflates: how much of the face's load outlasts the head's motion.
+        #[arg(long = "advance-hold-ms", default_value_t = 0.0)]
+        advance_hold_ms: f64,
+        /// Hold the head where the advance left it through the expansion
+        /// (a head on a rigid body) instead of freeing it.
+        #[arg(long = "head-held")]
+        head_held: bool,
         /// Finer grains (this radius, mm) in a block in front of the head,
         /// so more grains bear on its face; the time step follows them.
         #[arg(long = "face-grain-radius-mm")]
@@ -338,6 +346,8 @@ fn run(cli: Cli) -> Result<()> {
             grain_radius_mm,
             expansion_s,
             advance_mm,
+            advance_hold_ms,
+            head_held,
             face_grain_radius_mm,
             grain_modulus_mpa,
             deposition_modulus_mpa,
@@ -380,6 +390,8 @@ fn run(cli: Cli) -> Result<()> {
             spec.seed = seed;
             spec.face_grain_radius_m = face_grain_radius_mm.map(|f| f * 1e-3);
             spec.advance_m = advance_mm * 1e-3;
+            spec.advance_hold_s = advance_hold_ms * 1e-3;
+            spec.head_held = head_held;
             spec.grain_modulus_pa = grain_modulus_mpa * 1e6;
             spec.deposition_modulus_pa = deposition_modulus_mpa * 1e6;
             if let Some(t) = expansion_s {

@@ -164,6 +164,47 @@ fn impossible_cases_are_refused_with_what_is_wrong() {
         ..ScenarioSpec::paper(40e-3, 1.5e-3)
     });
     assert!(e.contains("skin stiffness scale 0"), "{e}");
+    let e = err(ScenarioSpec {
+        advance_hold_s: -0.01,
+        ..ScenarioSpec::paper(40e-3, 1.5e-3)
+    });
+    assert!(e.contains("pause after the advance (-0.01 s)"), "{e}");
+}
+
+#[test]
+fn a_held_head_stays_where_the_advance_left_it_and_a_free_one_recoils() {
+    // The tiny bed, advanced 1 mm into: freed, the loaded face pushes the
+    // head back at once (nothing but the skin holds it); held, it does
+    // not move at all, and the face keeps bearing on the sand.
+    let run = |head_held: bool| {
+        simulate(&Options {
+            spec: ScenarioSpec {
+                head_held,
+                advance_hold_s: 0.002,
+                ..tiny(2.5e-3, 0.4, 0.04, 1)
+            },
+            out: None,
+            progress: false,
+        })
+        .unwrap()
+    };
+    let held = run(true);
+    assert!(held
+        .text()
+        .contains("1.00 mm advance and a 2.0 ms pause, the head then held"));
+    assert!(held.samples.iter().all(|s| s.head_receding_m == 0.0));
+    let free = run(false);
+    let recoil = free
+        .samples
+        .iter()
+        .map(|s| s.head_receding_m)
+        .fold(0.0, f64::max);
+    assert!(recoil > 0.05e-3, "the free head receded at most {recoil} m");
+    // The pause is the same in both: the same start.
+    assert_eq!(
+        held.samples[0].face_pressure_pa,
+        free.samples[0].face_pressure_pa
+    );
 }
 
 /// The paper's set-up as a rig.toml with the skin left to the solver's

@@ -173,9 +173,19 @@ impl Report {
             st.kinetic_energy_j
         );
         if let (true, Some(f)) = (self.spec.advance_m > 0.0, self.samples.first()) {
+            let pause = if self.spec.advance_hold_s > 0.0 {
+                format!(" and a {:.1} ms pause", self.spec.advance_hold_s * 1e3)
+            } else {
+                String::new()
+            };
+            let held = if self.spec.head_held {
+                ", the head then held through the expansion"
+            } else {
+                ""
+            };
             let _ = writeln!(
                 s,
-                "after the {:.2} mm advance (the expansion's start): D {:.2} mm, p_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa",
+                "after the {:.2} mm advance{pause}{held} (the expansion's start): D {:.2} mm, p_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa",
                 self.spec.advance_m * 1e3,
                 f.outer_diameter_m * 1e3,
                 f.internal_pressure_pa * 1e-3,

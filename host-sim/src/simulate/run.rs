@@ -147,10 +147,14 @@ fn stiffen(bed: &mut Bed, bar: &ProgressBar) -> Result<()> {
 /// Advances the actuator `spec.advance_m` into the settled sand over
 /// `spec.advance_s`: the head and the zone's back ring move together (the
 /// whole body advancing, the skin unstrained), the zone holding its
-/// volume; then the head is freed and the body stays.
+/// volume; then the body stops, holds the head for `spec.advance_hold_s`
+/// and frees it, unless `spec.head_held` (then it holds it throughout).
 pub fn advance(bed: &mut Bed, bar: &ProgressBar) -> Result<()> {
     let spec = &bed.spec;
     if spec.advance_m <= 0.0 {
+        if let (true, Some(h)) = (spec.head_held, &mut bed.coupling.skin.head) {
+            h.driven_m_s = Some(0.0);
+        }
         return Ok(());
     }
     let steps = (spec.advance_s / bed.params.dt_s).ceil() as u64;
@@ -166,11 +170,24 @@ pub fn advance(bed: &mut Bed, bar: &ProgressBar) -> Result<()> {
             return Err(e.clone()).context("skin while advancing");
         }
     }
+    bed.coupling.skin.body_velocity_m_s = 0.0;
+    let hold = (spec.advance_hold_s / bed.params.dt_s).ceil() as u64;
     if let Some(h) = &mut bed.coupling.skin.head {
-        h.driven_m_s = None;
+        h.driven_m_s = Some(0.0);
         h.velocity_m_s = 0.0;
     }
-    bed.coupling.skin.body_velocity_m_s = 0.0;
+    for _ in 0..hold {
+        step(&bed.params, &mut bed.state, &mut bed.coupling).context("holding the head")?;
+        if let Some(e) = bed.coupling.error() {
+            return Err(e.clone()).context("skin while holding the head");
+        }
+    }
+    if let Some(h) = &mut bed.coupling.skin.head {
+        if !spec.head_held {
+            h.driven_m_s = None;
+        }
+        h.velocity_m_s = 0.0;
+    }
     Ok(())
 }
 

@@ -182,6 +182,13 @@ pub struct ScenarioSpec {
     pub advance_m: f64,
     /// Duration of that advance (s).
     pub advance_s: f64,
+    /// Pause after the advance (s): the body stops and holds the head
+    /// where it is before the zone inflates. Default 0.
+    pub advance_hold_s: f64,
+    /// The body holds the head where the advance left it for the whole
+    /// expansion (a head fixed to a rigid body, D_r = 0); default false:
+    /// the head is freed after the advance (and its pause).
+    pub head_held: bool,
     /// Young's modulus of the grains during the advance and the expansion
     /// (Pa); the time step scales as the Rayleigh time, ∝ 1/√E. Default
     /// [`GRAIN_MODULUS_PA`].
@@ -230,6 +237,8 @@ impl ScenarioSpec {
             face_grain_radius_m: None,
             advance_m: PAPER_ADVANCE_M,
             advance_s: 0.05,
+            advance_hold_s: 0.0,
+            head_held: false,
             grain_modulus_pa: GRAIN_MODULUS_PA,
             deposition_modulus_pa: DEPOSITION_MODULUS_PA,
         }
@@ -608,6 +617,11 @@ impl ScenarioSpec {
             "advance {} mm must lie between 0 and half the sand ahead ({} mm), over a positive time",
             self.advance_m * 1e3,
             0.5 * self.ahead_m * 1e3
+        );
+        ensure!(
+            self.advance_hold_s >= 0.0 && self.advance_hold_s.is_finite(),
+            "the pause after the advance ({} s) must be 0 or positive",
+            self.advance_hold_s
         );
         ensure!(
             pos(self.skin_stiffness_scale),
