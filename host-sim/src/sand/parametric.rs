@@ -120,11 +120,12 @@ impl ParametricSand {
     /// porosity's γ' against the solver bed's goes into N.
     pub fn fitted_to_solver(solver: &super::SolverSand) -> Self {
         let base = SandParams::paper_uncalibrated();
+        // The solver's K read with this law's γ' (same p_e).
+        let ratio = solver.unit_weight_kpa_per_mm() / base.buoyant_unit_weight_kpa_per_mm();
         let rows: Vec<(f64, f64)> = solver
             .curves()
             .iter()
             .flat_map(|c| {
-                let ratio = solver.unit_weight_kpa_per_mm() / base.buoyant_unit_weight_kpa_per_mm();
                 c.diameters_mm
                     .iter()
                     .zip(&c.coefficients)
