@@ -3,13 +3,16 @@
 //! calibrate -- DEPTH_MM RADIUS_MM ROLLING DEPOSITION [quick|full] [SEED] [ABOVE_MM]
 //! [WALL_MU] [SKIN_SCALE] [AHEAD_MM] [FACE_RADIUS_MM] [ADVANCE_MM] [EXPANSION_S]
 //! [GRAIN_MODULUS_PA] [DEPOSITION_MODULUS_PA] [SHELL] [BELOW_MM] [BOX_WIDTH_MM] [ROUND]
-//! [ADVANCE_S] [AROUND ALONG] [HOLD_S] [HEAD_HELD]`
+//! [ADVANCE_S] [AROUND ALONG] [HOLD_S] [HEAD_HELD] [LAYERS] [END_ROW_MM]`
 //! (face radius 0: one grain size; shell 1: the skin as a shell,
 //! `ScenarioSpec::with_shell`, else the membrane; below: the floor under
 //! the axis; round 1: the zone's rings kept round; advance: its duration;
 //! around, along: the membrane's mesh, default 24 × 6; hold: the pause
 //! after the advance, the head held, before the expansion; head held 1:
-//! the head held through the expansion too).
+//! the head held through the expansion too; layers n ≥ 1: the skin as a
+//! solid wall n hexahedra thick, `ScenarioSpec::with_solid`, with the
+//! around × along mesh when given; end row: the graded rows' length at the
+//! clamped ends, 0 for equal rows).
 
 use anyhow::{Context, Result};
 use host_sim::simulate::{simulate, Options, ScenarioSpec};
@@ -48,10 +51,16 @@ fn main() -> Result<()> {
     spec.settle_s = ScenarioSpec::column_settle_s(spec.below_m + spec.above_m);
     spec.round_zone = num(18, 0.0)? != 0.0;
     spec.advance_s = num(19, spec.advance_s)?;
+    let layers = num(24, 0.0)? as usize;
+    if layers > 0 {
+        spec = spec.with_solid(layers);
+    }
     spec.skin_mesh = (
         num(20, spec.skin_mesh.0 as f64)? as usize,
         num(21, spec.skin_mesh.1 as f64)? as usize,
     );
+    let end_row = num(25, spec.skin_end_row_m.map_or(0.0, |m| m * 1e3))?;
+    spec.skin_end_row_m = (end_row > 0.0).then_some(end_row * 1e-3);
     spec.advance_hold_s = num(22, spec.advance_hold_s)?;
     spec.head_held = num(23, 0.0)? != 0.0;
     let above = num(6, 0.0)? * 1e-3;
@@ -74,7 +83,7 @@ fn main() -> Result<()> {
         100.0 * rep.face_pressure_drop().unwrap_or(f64::NAN),
         100.0 * rep.face_pressure_drop_beyond(rep.spec.face_drop_from_m()).unwrap_or(f64::NAN),
         m.head_receding_m * 1e3,
-        m.max_von_mises_pa * 1e-6, rep.spec.grain_modulus_pa, rep.spec.deposition_modulus_pa, if rep.spec.skin_bending { "shell" } else { "membrane" }, if rep.spec.round_zone { " (round)" } else { "" }, m.max_bending_strain.unwrap_or(f64::NAN), rep.last().map_or(f64::NAN, |s| s.calipers_m.0 * 1e3), rep.last().map_or(f64::NAN, |s| s.calipers_m.1 * 1e3), rep.spec.skin_mesh.0, rep.spec.skin_mesh.1, rep.wall_s
+        m.max_von_mises_pa * 1e-6, rep.spec.grain_modulus_pa, rep.spec.deposition_modulus_pa, if rep.spec.skin_layers > 0 { format!("solid x{}", rep.spec.skin_layers) } else if rep.spec.skin_bending { "shell".to_string() } else { "membrane".to_string() }, if rep.spec.round_zone { " (round)" } else { "" }, m.max_bending_strain.unwrap_or(f64::NAN), rep.last().map_or(f64::NAN, |s| s.calipers_m.0 * 1e3), rep.last().map_or(f64::NAN, |s| s.calipers_m.1 * 1e3), rep.spec.skin_mesh.0, rep.spec.skin_mesh.1, rep.wall_s
     );
     Ok(())
 }

@@ -3,7 +3,8 @@
 //! DEM spheres against the FEM skin's outer surface, forces exchanged both
 //! ways every DEM step. Each particle has at most one skin contact, with
 //! the closest mid-surface triangle, offset outwards by half the
-//! triangle's current thickness; the contact law is the DEM's own
+//! triangle's current thickness (a solid skin: its outer face, no offset;
+//! [`Skin::contact_offset_m`]); the contact law is the DEM's own
 //! [`ContactModel`] (Hertz normal penalty from the sand and skin moduli,
 //! restitution damping, Mindlin tangential spring with history and a
 //! Coulomb cap μ). The particle receives the force, the skin nodes the
@@ -176,10 +177,10 @@ impl<S: StrainEnergy> Coupling<S> {
             self.history = vec![History::default(); n];
             self.touching.clear();
         }
-        let half_thickness: Vec<f64> = (0..skin.elements.len())
-            .map(|k| Ok(0.5 * skin.spec.thickness_m * skin.strain(k)?.thickness_stretch()))
+        let offset_m: Vec<f64> = (0..skin.elements.len())
+            .map(|k| skin.contact_offset_m(k))
             .collect::<Result<_, FemError>>()?;
-        let reach = particles.max_radius_m() + half_thickness.iter().copied().fold(0.0, f64::max);
+        let reach = particles.max_radius_m() + offset_m.iter().copied().fold(0.0, f64::max);
         let grid = TriangleGrid::build(skin, reach);
         let (lo, hi) = grid.bounds;
         let (model, dt) = (&self.model, self.dt_s);
@@ -195,7 +196,7 @@ impl<S: StrainEnergy> Coupling<S> {
             .filter(|&i| in_box(&parts.position_m[i], &lo, &hi))
             .filter_map(|i| {
                 let mut h = history[i];
-                let hit = contact(skin_ro, &grid, &half_thickness, parts, i, model, dt, &mut h);
+                let hit = contact(skin_ro, &grid, &offset_m, parts, i, model, dt, &mut h);
                 hit.map(|hit| (i, hit, h))
             })
             .collect();
@@ -291,7 +292,7 @@ struct Hit {
 fn contact<S: StrainEnergy>(
     skin: &Skin<S>,
     grid: &TriangleGrid,
-    half_thickness: &[f64],
+    offset_m: &[f64],
     particles: &Particles,
     i: usize,
     model: &ContactModel,
@@ -311,7 +312,7 @@ fn contact<S: StrainEnergy>(
         let x = skin.elements[k].nodes.map(|a| skin.position_m[a]);
         let (q, w) = closest_point_on_triangle(&p, x);
         let dist = (p - q).norm();
-        if dist < r + half_thickness[k] && best.is_none_or(|b| dist < b.0) {
+        if dist < r + offset_m[k] && best.is_none_or(|b| dist < b.0) {
             best = Some((dist, k, q, w));
         }
     }
@@ -342,7 +343,7 @@ fn contact<S: StrainEnergy>(
     let m_i = particles.mass_kg[i];
     let g = ContactGeometry::sphere_on_surface(
         normal,
-        r + half_thickness[k] - gap,
+        r + offset_m[k] - gap,
         r,
         m_i * m_skin / (m_i + m_skin),
         particles.velocity_m_s[i] - v_skin,

@@ -32,6 +32,7 @@
 pub mod bending;
 pub mod element;
 pub mod mesh;
+pub mod solid;
 pub mod vtk;
 
 use nalgebra::{Matrix2, Matrix3, Vector3};
@@ -41,6 +42,7 @@ use crate::skin::StrainEnergy;
 use bending::{von_mises_3d_pa, Bending};
 use element::{internal_forces_n, Strain, Triangle};
 use mesh::TubeMesh;
+use solid::Solid;
 
 /// What can go wrong in the skin solver.
 #[derive(Clone, Debug, thiserror::Error, PartialEq)]
@@ -101,6 +103,10 @@ pub struct SkinSpec {
     /// ([`TubeMesh::graded`]), to resolve the bending layer at clamped
     /// ends; `None`: `along` rows of equal length.
     pub end_row_m: Option<f64>,
+    /// Hexahedra through the wall ([`solid`]): 0 for a membrane or shell
+    /// on the mid-surface, n ≥ 1 for a solid wall n elements thick (not
+    /// with `bending`, which a solid has of itself).
+    pub layers: usize,
 }
 
 impl SkinSpec {
@@ -119,6 +125,7 @@ impl SkinSpec {
             along,
             bending: false,
             end_row_m: None,
+            layers: 0,
         }
     }
 
@@ -126,6 +133,14 @@ impl SkinSpec {
     pub fn paper(around: usize, along: usize) -> SkinSpec {
         Self::from_tube(&TubeGeometry::PAPER, around, along)
     }
+}
+
+/// Node indices of ring `j` in every layer of a wall `layers` elements
+/// thick (0: the mid-surface mesh's ring alone), layers numbered as
+/// [`Solid::node`].
+fn layered_ring(mesh: &TubeMesh, layers: usize, j: usize) -> impl Iterator<Item = usize> {
+    let (ring, per_layer) = (mesh.ring(j), mesh.rest_m.len());
+    (0..=layers).flat_map(move |l| ring.clone().map(move |a| l * per_layer + a))
 }
 
 /// How the ends of the zone are held.
@@ -224,8 +239,15 @@ pub struct Skin<S: StrainEnergy> {
     pub mesh: TubeMesh,
     /// The bending term (`None`: a membrane, [`SkinSpec::bending`] off).
     pub bending: Option<Bending>,
-    /// Element reference data, one per `mesh.triangles` entry.
+    /// The solid wall (`None`: a membrane or shell, [`SkinSpec::layers`]
+    /// 0). With it the nodes are the wall's layers ([`Solid::node`]).
+    pub solid: Option<Solid>,
+    /// Element reference data, one per `mesh.triangles` entry: the
+    /// mid-surface membrane, or for a solid wall its outer surface (what
+    /// the sand touches; no mechanics of its own).
     pub elements: Vec<Triangle>,
+    /// Rest node positions (m): the mesh's, or every layer's of a solid.
+    pub rest_m: Vec<Vector3<f64>>,
     /// Current node positions (m).
     pub position_m: Vec<Vector3<f64>>,
     /// Node velocities (m/s), at the half step in [`Skin::step`].
@@ -286,20 +308,37 @@ impl<S: StrainEnergy> Skin<S> {
                 spec.length_m / spec.along.max(1) as f64,
             )?,
         };
-        let n = mesh.rest_m.len();
-        let mut elements = Vec::with_capacity(mesh.triangles.len());
+        if spec.layers > 0 && spec.bending {
+            return Err(FemError::param("bending with layers", spec.layers as f64));
+        }
+        let (solid, rest_m) = if spec.layers > 0 {
+            let bulk = solid::BULK_RATIO * law.shear_modulus_kpa() * element::PA_PER_KPA;
+            let (s, rest) = Solid::new(&mesh, spec.thickness_m, spec.layers, bulk)?;
+            (Some(s), rest)
+        } else {
+            (None, mesh.rest_m.clone())
+        };
+        let n = rest_m.len();
+        let surface = solid.as_ref().map_or(mesh.triangles.clone(), |s| s.outer());
+        let mut elements = Vec::with_capacity(surface.len());
         let mut mass_kg = vec![0.0; n];
-        for (k, t) in mesh.triangles.iter().enumerate() {
-            let tri = Triangle::new(*t, t.map(|a| mesh.rest_m[a]))
+        for (k, t) in surface.iter().enumerate() {
+            let tri = Triangle::new(*t, t.map(|a| rest_m[a]))
                 .ok_or(FemError::Collapsed { element: k })?;
-            for a in t {
-                mass_kg[*a] += spec.density_kg_m3 * spec.thickness_m * tri.area_m2 / 3.0;
+            if solid.is_none() {
+                for a in t {
+                    mass_kg[*a] += spec.density_kg_m3 * spec.thickness_m * tri.area_m2 / 3.0;
+                }
             }
             elements.push(tri);
         }
+        if let Some(s) = &solid {
+            s.lumped_masses_kg(spec.density_kg_m3, &mut mass_kg);
+        }
+        let layers = solid.as_ref().map_or(0, |s| s.layers);
         let mut fixed = vec![[false; 3]; n];
         for j in [0, mesh.along] {
-            for a in mesh.ring(j) {
+            for a in layered_ring(&mesh, layers, j) {
                 fixed[a] = match (ends, j) {
                     (Ends::PlaneStrain, _) | (Ends::Closed, 0) => [false, false, true],
                     // The head's ring moves only with the head (see step).
@@ -321,7 +360,9 @@ impl<S: StrainEnergy> Skin<S> {
             law,
             spec: *spec,
             bending,
-            position_m: mesh.rest_m.clone(),
+            solid,
+            position_m: rest_m.clone(),
+            rest_m,
             velocity_m_s: vec![Vector3::zeros(); n],
             external_force_n: vec![Vector3::zeros(); n],
             ends,
@@ -348,6 +389,41 @@ impl<S: StrainEnergy> Skin<S> {
         self.position_m.len()
     }
 
+    /// Hexahedra through the wall (0 for a membrane or shell).
+    fn layers(&self) -> usize {
+        self.solid.as_ref().map_or(0, |s| s.layers)
+    }
+
+    /// Node indices of ring `j` through the whole wall: the mesh's ring,
+    /// or that ring in every layer of a solid.
+    pub fn ring_nodes(&self, j: usize) -> impl Iterator<Item = usize> + '_ {
+        layered_ring(&self.mesh, self.layers(), j)
+    }
+
+    /// How far outside surface element `k` ([`Skin::elements`]) the
+    /// skin's outer surface lies (m): half the current thickness of a
+    /// membrane's mid-surface triangle, 0 for a solid's outer face.
+    pub fn contact_offset_m(&self, k: usize) -> Result<f64, FemError> {
+        if self.solid.is_some() {
+            return Ok(0.0);
+        }
+        Ok(0.5 * self.spec.thickness_m * self.strain(k)?.thickness_stretch())
+    }
+
+    /// The triangles bounding the fluid, normals outwards: the
+    /// mid-surface, or a solid's inner surface.
+    fn fluid_triangles(&self) -> impl Iterator<Item = [usize; 3]> + '_ {
+        let solid = self.solid.as_ref().map(|s| s.inner.iter().copied());
+        let membrane = self
+            .solid
+            .is_none()
+            .then(|| self.elements.iter().map(|t| t.nodes));
+        solid
+            .into_iter()
+            .flatten()
+            .chain(membrane.into_iter().flatten())
+    }
+
     /// Strain of element `k` at the current positions.
     pub fn strain(&self, k: usize) -> Result<Strain, FemError> {
         let tri = &self.elements[k];
@@ -362,6 +438,9 @@ impl<S: StrainEnergy> Skin<S> {
 
     /// Total strain energy (J) at the current positions.
     pub fn strain_energy_j(&self) -> Result<f64, FemError> {
+        if let Some(s) = &self.solid {
+            return s.energy_j(&self.law, &self.position_m);
+        }
         let membrane: f64 = (0..self.elements.len())
             .map(|k| {
                 let e = self.strain(k)?;
@@ -380,6 +459,9 @@ impl<S: StrainEnergy> Skin<S> {
     /// Internal nodal forces ∂E/∂x (N) at the current positions into `out`.
     pub fn internal_forces_n(&self, out: &mut [Vector3<f64>]) -> Result<(), FemError> {
         out.iter_mut().for_each(|f| *f = Vector3::zeros());
+        if let Some(s) = &self.solid {
+            return s.add_internal_forces_n(&self.law, &self.position_m, out);
+        }
         for (k, tri) in self.elements.iter().enumerate() {
             let e = self.strain(k)?;
             let f = internal_forces_n(tri, &e, &self.stress(&e), self.spec.thickness_m);
@@ -404,10 +486,10 @@ impl<S: StrainEnergy> Skin<S> {
     /// these are ∂V/∂x of the enclosed volume up to terms that cancel
     /// over a closed surface (what the stability bound needs).
     fn add_area_vectors_m2(&self, scale: f64, out: &mut [Vector3<f64>]) {
-        for tri in &self.elements {
-            let [a, b, c] = tri.nodes.map(|a| self.position_m[a]);
+        for t in self.fluid_triangles() {
+            let [a, b, c] = t.map(|a| self.position_m[a]);
             let share = (b - a).cross(&(c - a)) * (scale / 6.0);
-            for n in tri.nodes {
+            for n in t {
                 out[n] += share;
             }
         }
@@ -433,7 +515,7 @@ impl<S: StrainEnergy> Skin<S> {
             *r += ext;
         }
         let head_n = if self.head.is_some() {
-            self.mesh.ring(self.mesh.along).map(|a| out[a].z).sum()
+            self.ring_nodes(self.mesh.along).map(|a| out[a].z).sum()
         } else {
             0.0
         };
@@ -449,7 +531,10 @@ impl<S: StrainEnergy> Skin<S> {
 
     /// The pressure on the flat cap closing the far ring (closed ends),
     /// shared equally by the ring's nodes: p times the ring polygon's
-    /// area vector ½Σ (x_i − c) × (x_{i+1} − c), c its centroid.
+    /// area vector ½Σ (x_i − c) × (x_{i+1} − c), c its centroid (a solid:
+    /// its inner ring's polygon, the cap's load spread over the end face
+    /// through the wall, each layer's ring by its share of the face's
+    /// rest area, so the wall takes it as a uniform axial stress).
     fn add_end_cap_forces_n(&self, out: &mut [Vector3<f64>]) {
         let ring = self.mesh.ring(self.mesh.along);
         let n = ring.len();
@@ -458,9 +543,23 @@ impl<S: StrainEnergy> Skin<S> {
         let area: Vector3<f64> = (0..n)
             .map(|i| 0.5 * (x[i] - c).cross(&(x[(i + 1) % n] - c)))
             .sum();
-        let share = area * (self.pressure_pa / n as f64);
-        for a in ring {
-            out[a] += share;
+        let layers = self.layers();
+        let per_layer = self.mesh.rest_m.len();
+        // Trapezoidal weights across the face, ∝ each layer's rest radius.
+        let weight = |l: usize| {
+            let end = if layers > 0 && (l == 0 || l == layers) {
+                0.5
+            } else {
+                1.0
+            };
+            end * self.rest_m[ring.start + l * per_layer].xy().norm()
+        };
+        let total: f64 = (0..=layers).map(weight).sum();
+        for l in 0..=layers {
+            let share = area * (self.pressure_pa * weight(l) / total / n as f64);
+            for a in ring.clone() {
+                out[a + l * per_layer] += share;
+            }
         }
     }
 
@@ -497,6 +596,9 @@ impl<S: StrainEnergy> Skin<S> {
 
     /// The elements' stable step (s), without the fluid.
     fn element_time_step_s(&self) -> Result<f64, FemError> {
+        if let Some(s) = &self.solid {
+            return s.stable_time_step_s(&self.law, self.spec.density_kg_m3, &self.position_m);
+        }
         let mut dt = f64::INFINITY;
         for (k, tri) in self.elements.iter().enumerate() {
             let e = self.strain(k)?;
@@ -533,10 +635,11 @@ impl<S: StrainEnergy> Skin<S> {
         for (x, v) in self.position_m.iter_mut().zip(&self.velocity_m_s) {
             *x += *v * dt_s;
         }
+        let layers = self.layers();
         if let Some(head) = &mut self.head {
-            let ring = self.mesh.ring(self.mesh.along);
+            let ring: Vec<usize> = layered_ring(&self.mesh, layers, self.mesh.along).collect();
             // The head and its ring move as one rigid body along z.
-            let m = head.mass_kg + ring.clone().map(|a| self.mass_kg[a]).sum::<f64>();
+            let m = head.mass_kg + ring.iter().map(|&a| self.mass_kg[a]).sum::<f64>();
             let f = head_n + head.external_force_n;
             head.velocity_m_s = match head.driven_m_s {
                 Some(v) => v,
@@ -544,13 +647,13 @@ impl<S: StrainEnergy> Skin<S> {
             };
             head.displacement_m += head.velocity_m_s * dt_s;
             for a in ring {
-                self.position_m[a].z = self.mesh.rest_m[a].z + head.displacement_m;
+                self.position_m[a].z = self.rest_m[a].z + head.displacement_m;
                 self.velocity_m_s[a].z = head.velocity_m_s;
             }
             // The body carries the back ring.
             self.body_displacement_m += self.body_velocity_m_s * dt_s;
-            for a in self.mesh.ring(0) {
-                self.position_m[a].z = self.mesh.rest_m[a].z + self.body_displacement_m;
+            for a in layered_ring(&self.mesh, layers, 0) {
+                self.position_m[a].z = self.rest_m[a].z + self.body_displacement_m;
                 self.velocity_m_s[a].z = self.body_velocity_m_s;
             }
         }
@@ -563,8 +666,10 @@ impl<S: StrainEnergy> Skin<S> {
     /// momentum-preserving projection (the ring's nodes have equal masses)
     /// onto the axisymmetric motions, so rings that start round stay round.
     fn keep_rings_round(&mut self) {
-        for j in 1..self.mesh.along {
+        let per_layer = self.mesh.rest_m.len();
+        for (l, j) in (0..=self.layers()).flat_map(|l| (1..self.mesh.along).map(move |j| (l, j))) {
             let ring = self.mesh.ring(j);
+            let ring = ring.start + l * per_layer..ring.end + l * per_layer;
             let n = ring.len() as f64;
             let radial = |a: usize, x: &[Vector3<f64>]| {
                 let r = x[a].xy();
@@ -638,15 +743,31 @@ impl<S: StrainEnergy> Skin<S> {
         })
     }
 
-    /// Mean current mid-surface radius of ring `j` about the z axis (m).
+    /// Mean current mid-surface radius of ring `j` about the z axis (m):
+    /// of a solid, the mean of its inner and outer surfaces'.
     pub fn ring_radius_m(&self, j: usize) -> f64 {
+        let layers = self.layers();
+        0.5 * (self.layer_ring_radius_m(0, j) + self.layer_ring_radius_m(layers, j))
+    }
+
+    /// Mean current radius of ring `j` of layer `l` (m).
+    fn layer_ring_radius_m(&self, l: usize, j: usize) -> f64 {
         let ring = self.mesh.ring(j);
         let n = ring.len() as f64;
-        ring.map(|a| self.position_m[a].xy().norm()).sum::<f64>() / n
+        let off = l * self.mesh.rest_m.len();
+        ring.map(|a| self.position_m[a + off].xy().norm())
+            .sum::<f64>()
+            / n
     }
 
     /// Current wall thickness (m) of the elements touching ring `j`, mean.
+    /// Of a solid: the mean radial distance between its outer and inner
+    /// surfaces at the ring.
     pub fn ring_thickness_m(&self, j: usize) -> Result<f64, FemError> {
+        if self.solid.is_some() {
+            let layers = self.layers();
+            return Ok(self.layer_ring_radius_m(layers, j) - self.layer_ring_radius_m(0, j));
+        }
         let ring = self.mesh.ring(j);
         let mut sum = 0.0;
         let mut count = 0usize;
@@ -676,8 +797,13 @@ impl<S: StrainEnergy> Skin<S> {
     pub fn calipers_at_mid_length_m(&self) -> (f64, f64) {
         let j = self.mesh.middle_ring();
         let ring = self.mesh.ring(j);
-        let r: Vec<f64> = ring.map(|a| self.position_m[a].xy().norm()).collect();
-        let t = self.ring_thickness_m(j).unwrap_or(self.spec.thickness_m);
+        // A solid's outer surface is measured directly; a membrane's is
+        // its mid-surface plus the thickness.
+        let (off, t) = match self.solid {
+            Some(_) => (self.layers() * self.mesh.rest_m.len(), 0.0),
+            None => (0, self.ring_thickness_m(j).unwrap_or(self.spec.thickness_m)),
+        };
+        let r: Vec<f64> = ring.map(|a| self.position_m[a + off].xy().norm()).collect();
         let n = r.len();
         let across = |i: usize| {
             if n.is_multiple_of(2) {
@@ -698,7 +824,17 @@ impl<S: StrainEnergy> Skin<S> {
     /// the two surfaces of the element's membrane stress ± that node's
     /// bending stress (the bending field is nodal: at a clamped end it
     /// peaks on the end ring, which an element mean would smear).
+    /// A solid's: each hexahedron's at its centre (as C3D8R reports it).
     pub fn von_mises_pa(&self) -> Result<Vec<f64>, FemError> {
+        if let Some(s) = &self.solid {
+            return (0..s.hexes.len())
+                .map(|k| {
+                    Ok(von_mises_3d_pa(
+                        &s.state(&self.law, k, &self.position_m)?.cauchy_pa,
+                    ))
+                })
+                .collect();
+        }
         let nodes = self
             .bending
             .as_ref()
@@ -731,7 +867,8 @@ impl<S: StrainEnergy> Skin<S> {
 
     /// Current outer lateral area of the skin (m²): each triangle's
     /// mid-surface area scaled by (ρ + h/2)/ρ, ρ its centroid's distance
-    /// from the axis and h its current thickness.
+    /// from the axis and h its current thickness; a solid's outer faces
+    /// as they are.
     pub fn outer_area_m2(&self) -> Result<f64, FemError> {
         (0..self.elements.len())
             .map(|k| {
@@ -739,8 +876,7 @@ impl<S: StrainEnergy> Skin<S> {
                 let [a, b, c] = tri.nodes.map(|a| self.position_m[a]);
                 let area = 0.5 * (b - a).cross(&(c - a)).norm();
                 let rho = ((a + b + c) / 3.0).xy().norm();
-                let h = self.spec.thickness_m * self.strain(k)?.thickness_stretch();
-                Ok(area * (1.0 + 0.5 * h / rho))
+                Ok(area * (1.0 + self.contact_offset_m(k)? / rho))
             })
             .sum()
     }
@@ -749,10 +885,9 @@ impl<S: StrainEnergy> Skin<S> {
     /// the flux of (x, y, 0)/2 through the lateral surface (none crosses
     /// flat end caps normal to z).
     pub fn enclosed_volume_m3(&self) -> f64 {
-        self.elements
-            .iter()
-            .map(|tri| {
-                let [a, b, c] = tri.nodes.map(|a| self.position_m[a]);
+        self.fluid_triangles()
+            .map(|t| {
+                let [a, b, c] = t.map(|a| self.position_m[a]);
                 let area = 0.5 * (b - a).cross(&(c - a));
                 let centroid = (a + b + c) / 3.0;
                 0.5 * (centroid.x * area.x + centroid.y * area.y)

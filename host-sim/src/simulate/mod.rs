@@ -132,6 +132,19 @@ impl Report {
     pub fn text(&self) -> String {
         let mut s = String::new();
         let st = &self.settled;
+        let skin_kind = format!(
+            "skin: {}{}",
+            match (self.spec.skin_layers, self.spec.skin_bending) {
+                (0, false) => "membrane".to_string(),
+                (0, true) => "shell".to_string(),
+                (n, _) => format!("solid, {n} hexahedra through the wall"),
+            },
+            if self.spec.round_zone {
+                ", rings held round"
+            } else {
+                ""
+            }
+        );
         let _ = writeln!(
             s,
             "simulate ({}): depth {:.0} mm, zone {} → {:.2} mm over {} mm ({}), grain radius {:.2} mm{}, grain modulus {} MPa (settled at {} MPa), {} slab + {} surcharge grains, surcharge {:.0} Pa, dt {:.2e} s",
@@ -140,12 +153,7 @@ impl Report {
             self.spec.tube.outer_diameter_mm,
             self.spec.final_diameter_m * 1e3,
             self.spec.tube.length_mm,
-            match (self.spec.skin_bending, self.spec.round_zone) {
-                (true, false) => "skin: shell",
-                (false, false) => "skin: membrane",
-                (true, true) => "skin: shell, rings held round",
-                (false, true) => "skin: membrane, rings held round",
-            },
+            skin_kind,
             self.spec.grain_radius_m * 1e3,
             self.spec
                 .face_grain_radius_m

@@ -136,6 +136,10 @@ pub struct ScenarioSpec {
     /// Whether the skin resists bending (a shell, [`crate::fem::bending`],
     /// see [`ScenarioSpec::with_shell`]); off (default): a membrane.
     pub skin_bending: bool,
+    /// Hexahedra through the skin's wall: 0 (default) for the mid-surface
+    /// membrane or shell, n ≥ 1 for a solid wall ([`crate::fem::solid`],
+    /// see [`ScenarioSpec::with_solid`]).
+    pub skin_layers: usize,
     /// Keep the zone round ([`crate::fem::Skin::round_rings`]): the sand's
     /// answer to a round expansion, whatever shape the skin would take
     /// (off by default; for studies, README-simulate).
@@ -220,6 +224,7 @@ impl ScenarioSpec {
             skin_mesh: (24, 6),
             skin_end_row_m: None,
             skin_bending: false,
+            skin_layers: 0,
             round_zone: false,
             frames: 10,
             samples: 200,
@@ -419,6 +424,20 @@ impl ScenarioSpec {
         }
     }
 
+    /// This case with the skin as a solid wall, `layers` hexahedra thick
+    /// ([`crate::fem::solid`], the paper's own element family), its rows
+    /// graded as the shell's ([`SHELL_MESH`], [`SKIN_END_ROW_M`] at the
+    /// clamped ends) so the fold where it leaves the body is resolved.
+    pub fn with_solid(self, layers: usize) -> ScenarioSpec {
+        ScenarioSpec {
+            skin_bending: false,
+            skin_layers: layers,
+            skin_end_row_m: Some(SKIN_END_ROW_M),
+            skin_mesh: SHELL_MESH,
+            ..self
+        }
+    }
+
     /// The zone's skin of this case ([`ScenarioSpec::skin_law`] on
     /// [`ScenarioSpec::tube`], [`ScenarioSpec::skin_mesh`]) held by `ends`,
     /// at rest.
@@ -427,6 +446,7 @@ impl ScenarioSpec {
         let spec = SkinSpec {
             end_row_m: self.skin_end_row_m,
             bending: self.skin_bending,
+            layers: self.skin_layers,
             ..SkinSpec::from_tube(&self.tube, around, along)
         };
         let mut skin = Skin::new(self.skin_law(), &spec, ends)?;

@@ -1,0 +1,413 @@
+//! The skin as a solid: trilinear hexahedra through the wall's thickness,
+//! the paper's own element family (Abaqus C3D8R), total Lagrangian.
+//!
+//! The membrane ([`super::element`]) and the shell ([`super::bending`])
+//! describe the wall by its mid-surface; where the skin folds over the
+//! body's edge tighter than its thickness neither holds. Here the wall is
+//! `layers` hexahedra thick, its inner surface loaded by the fluid and its
+//! outer surface touched by the sand, so bending, through-thickness
+//! stresses and the fold at a clamped edge come out of the continuum.
+//!
+//! The material is the skin law made slightly compressible, as Abaqus does
+//! for its hyperelastic solids:
+//!
+//! ```text
+//! W = W_law(Ī1, Ī2) + K/2·(J − 1)²,   Ī1 = J^(−2/3)·I1,  Ī2 = J^(−4/3)·I2
+//! ```
+//!
+//! with K = [`BULK_RATIO`]·μ0 (ν ≈ 0.49). Locking is avoided the standard
+//! way for nearly incompressible hexahedra (mean dilatation, Simo–Taylor–
+//! Pister): the isochoric part is integrated at the 2×2×2 Gauss points, the
+//! volumetric part takes one J per element, J̄ = v/V (current over rest
+//! volume, both exact for the trilinear map under that rule). The nodal
+//! forces are the exact gradient of that energy,
+//!
+//! ```text
+//! f_a = Σ_g w_g·(P_iso(F_g) + p̄·J_g·F_g⁻ᵀ)·∇N_a(g),   p̄ = K·(J̄ − 1)
+//! P_iso = 2W1·J^(−2/3)·(F − I1/3·F⁻ᵀ) + 2W2·J^(−4/3)·(I1·F − F·C − 2I2/3·F⁻ᵀ)
+//! ```
+//!
+//! (checked against finite differences of the energy in `tests/fem.rs`).
+//! The stress reported is the Cauchy stress at each element's centre, where
+//! a reduced-integration C3D8R reports it.
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::element::PA_PER_KPA;
+use super::mesh::TubeMesh;
+use super::FemError;
+use crate::skin::StrainEnergy;
+
+/// Bulk modulus over the law's small-strain shear modulus, K/μ0: Poisson's
+/// ratio ν = (3K/μ − 2)/(6K/μ + 2) ≈ 0.495 (Abaqus takes 20 when a
+/// hyperelastic law is given as incompressible in Explicit). Stiff enough
+/// that the wall's swelling is within about 1 % of the incompressible
+/// one's (doubling K moves it by less: `tests/solid.rs`), soft enough that
+/// the explicit step (∝ 1/√K) stays near the DEM's.
+pub const BULK_RATIO: f64 = 100.0;
+
+/// Natural coordinates of the 8 nodes: around (ξ), along (η), out (ζ).
+const CORNERS: [[f64; 3]; 8] = [
+    [-1.0, -1.0, -1.0],
+    [1.0, -1.0, -1.0],
+    [1.0, 1.0, -1.0],
+    [-1.0, 1.0, -1.0],
+    [-1.0, -1.0, 1.0],
+    [1.0, -1.0, 1.0],
+    [1.0, 1.0, 1.0],
+    [-1.0, 1.0, 1.0],
+];
+
+/// The 2-point Gauss abscissa 1/√3.
+const GAUSS: f64 = 0.577_350_269_189_625_8;
+
+/// One hexahedron's reference data.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Hex {
+    /// Node indices: the inner face counter-clockwise seen from outside
+    /// (around, then along), then the outer face in the same order.
+    pub nodes: [usize; 8],
+    /// Reference gradients ∇N_a (1/m) at the 8 Gauss points, then at the
+    /// centre (index 8).
+    gradients_per_m: [[Vector3<f64>; 8]; 9],
+    /// Gauss weight × det J0 at each Gauss point (m³).
+    weights_m3: [f64; 8],
+    /// Rest volume V (m³).
+    pub volume_m3: f64,
+}
+
+/// The state of one hexahedron at the current positions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HexState {
+    /// Current over rest volume J̄.
+    pub volume_ratio: f64,
+    /// Mean pressure term p̄ = K·(J̄ − 1) (Pa; positive in tension).
+    pub mean_stress_pa: f64,
+    /// Cauchy stress at the centre (Pa).
+    pub cauchy_pa: Matrix3<f64>,
+}
+
+impl Hex {
+    /// Reference data of the hexahedron on `nodes` at rest positions
+    /// `rest` (m); `None` when it is degenerate or inside out.
+    pub fn new(nodes: [usize; 8], rest: [Vector3<f64>; 8]) -> Option<Hex> {
+        let mut gradients_per_m = [[Vector3::zeros(); 8]; 9];
+        let mut weights_m3 = [0.0; 8];
+        for (g, grads) in gradients_per_m.iter_mut().enumerate() {
+            let at = if g < 8 {
+                CORNERS[g].map(|c| c * GAUSS)
+            } else {
+                [0.0; 3]
+            };
+            let local = local_gradients(at);
+            let mut jac = Matrix3::zeros();
+            for (x, d) in rest.iter().zip(&local) {
+                jac += x * d.transpose();
+            }
+            let det = jac.determinant();
+            if !(det > 0.0 && det.is_finite()) {
+                return None;
+            }
+            let inv_t = jac.try_inverse()?.transpose();
+            for (out, d) in grads.iter_mut().zip(&local) {
+                *out = inv_t * d;
+            }
+            if g < 8 {
+                weights_m3[g] = det;
+            }
+        }
+        Some(Hex {
+            nodes,
+            gradients_per_m,
+            weights_m3,
+            volume_m3: weights_m3.iter().sum(),
+        })
+    }
+
+    /// Deformation gradient at point `g` (0–7 Gauss, 8 centre).
+    fn deformation(&self, g: usize, x: &[Vector3<f64>; 8]) -> Matrix3<f64> {
+        let mut f = Matrix3::zeros();
+        for (xa, d) in x.iter().zip(&self.gradients_per_m[g]) {
+            f += xa * d.transpose();
+        }
+        f
+    }
+
+    /// Current volume v (m³): Σ w_g·J_g, exact for the trilinear map.
+    fn volume_m3(&self, x: &[Vector3<f64>; 8]) -> f64 {
+        (0..8)
+            .map(|g| self.weights_m3[g] * self.deformation(g, x).determinant())
+            .sum()
+    }
+
+    /// Shortest current edge (m), for the stable step.
+    fn min_edge_m(x: &[Vector3<f64>; 8]) -> f64 {
+        const EDGES: [[usize; 2]; 12] = [
+            [0, 1],
+            [1, 2],
+            [2, 3],
+            [3, 0],
+            [4, 5],
+            [5, 6],
+            [6, 7],
+            [7, 4],
+            [0, 4],
+            [1, 5],
+            [2, 6],
+            [3, 7],
+        ];
+        EDGES
+            .iter()
+            .map(|[a, b]| (x[*a] - x[*b]).norm())
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// ∂N_a/∂(ξ, η, ζ) of the trilinear shape functions at `at`.
+fn local_gradients(at: [f64; 3]) -> [Vector3<f64>; 8] {
+    CORNERS.map(|c| {
+        let s = [1.0 + c[0] * at[0], 1.0 + c[1] * at[1], 1.0 + c[2] * at[2]];
+        Vector3::new(c[0] * s[1] * s[2], s[0] * c[1] * s[2], s[0] * s[1] * c[2]) * 0.125
+    })
+}
+
+/// Invariants of C = FᵀF and the isochoric first Piola–Kirchhoff stress
+/// (Pa) and energy density (Pa) of `law` at `f`; `None` when J ≤ 0.
+fn isochoric(law: &dyn StrainEnergy, f: &Matrix3<f64>) -> Option<(Matrix3<f64>, f64)> {
+    let j = f.determinant();
+    if !(j > 0.0 && j.is_finite()) {
+        return None;
+    }
+    let c = f.transpose() * f;
+    let i1 = c.trace();
+    let i2 = 0.5 * (i1 * i1 - (c * c).trace());
+    let (j23, j43) = (j.powf(-2.0 / 3.0), j.powf(-4.0 / 3.0));
+    let (b1, b2) = (j23 * i1, j43 * i2);
+    let w1 = law.dw_di1_kpa(b1, b2) * PA_PER_KPA;
+    let w2 = law.dw_di2_kpa(b1, b2) * PA_PER_KPA;
+    let f_inv_t = f.try_inverse()?.transpose();
+    let p = (f - f_inv_t * (i1 / 3.0)) * (2.0 * w1 * j23)
+        + (f * i1 - f * c - f_inv_t * (2.0 * i2 / 3.0)) * (2.0 * w2 * j43);
+    Some((p, law.energy_kpa(b1, b2) * PA_PER_KPA))
+}
+
+/// The skin's wall as hexahedra: `layers` through the thickness on the
+/// structured tube mesh, nodes numbered layer by layer (layer l, tube-mesh
+/// node a: l·per_layer + a; layer 0 the inner surface).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Solid {
+    /// Hexahedra through the thickness.
+    pub layers: usize,
+    /// Nodes in each layer (the tube mesh's).
+    pub per_layer: usize,
+    /// Bulk modulus K (Pa).
+    pub bulk_modulus_pa: f64,
+    /// The elements.
+    pub hexes: Vec<Hex>,
+    /// Inner-surface triangles (the fluid's), normals pointing away from
+    /// the axis.
+    pub inner: Vec<[usize; 3]>,
+}
+
+impl Solid {
+    /// The wall of rest mid-surface `mesh` and thickness `thickness_m`
+    /// (m) as `layers` hexahedra through the thickness, of bulk modulus
+    /// `bulk_modulus_pa` (Pa); with the rest positions of every node.
+    pub fn new(
+        mesh: &TubeMesh,
+        thickness_m: f64,
+        layers: usize,
+        bulk_modulus_pa: f64,
+    ) -> Result<(Solid, Vec<Vector3<f64>>), FemError> {
+        if layers < 1 {
+            return Err(FemError::param("layers", layers as f64));
+        }
+        if !(bulk_modulus_pa > 0.0 && bulk_modulus_pa.is_finite()) {
+            return Err(FemError::param("bulk_modulus_pa", bulk_modulus_pa));
+        }
+        if thickness_m.partial_cmp(&(2.0 * mesh.radius_m)) != Some(std::cmp::Ordering::Less) {
+            return Err(FemError::param("thickness_m", thickness_m));
+        }
+        let per_layer = mesh.rest_m.len();
+        let mut rest_m = Vec::with_capacity(per_layer * (layers + 1));
+        for l in 0..=layers {
+            let r = mesh.radius_m + thickness_m * (l as f64 / layers as f64 - 0.5);
+            let scale = r / mesh.radius_m;
+            rest_m.extend(
+                mesh.rest_m
+                    .iter()
+                    .map(|x| Vector3::new(x.x * scale, x.y * scale, x.z)),
+            );
+        }
+        let around = mesh.around;
+        let id = |i: usize, j: usize, l: usize| l * per_layer + j * around + i % around;
+        let mut hexes = Vec::with_capacity(around * mesh.along * layers);
+        for l in 0..layers {
+            for j in 0..mesh.along {
+                for i in 0..around {
+                    let nodes = [
+                        id(i, j, l),
+                        id(i + 1, j, l),
+                        id(i + 1, j + 1, l),
+                        id(i, j + 1, l),
+                        id(i, j, l + 1),
+                        id(i + 1, j, l + 1),
+                        id(i + 1, j + 1, l + 1),
+                        id(i, j + 1, l + 1),
+                    ];
+                    let hex =
+                        Hex::new(nodes, nodes.map(|a| rest_m[a])).ok_or(FemError::Collapsed {
+                            element: hexes.len(),
+                        })?;
+                    hexes.push(hex);
+                }
+            }
+        }
+        Ok((
+            Solid {
+                layers,
+                per_layer,
+                bulk_modulus_pa,
+                hexes,
+                inner: mesh.triangles.clone(),
+            },
+            rest_m,
+        ))
+    }
+
+    /// Node index of tube-mesh node `a` in layer `l`.
+    pub fn node(&self, l: usize, a: usize) -> usize {
+        l * self.per_layer + a
+    }
+
+    /// Outer-surface triangles (the sand's), normals pointing away from
+    /// the axis.
+    pub fn outer(&self) -> Vec<[usize; 3]> {
+        let off = self.layers * self.per_layer;
+        self.inner.iter().map(|t| t.map(|a| a + off)).collect()
+    }
+
+    /// Node positions of hexahedron `k`.
+    fn corners(&self, k: usize, position_m: &[Vector3<f64>]) -> [Vector3<f64>; 8] {
+        self.hexes[k].nodes.map(|a| position_m[a])
+    }
+
+    /// Total strain energy (J).
+    pub fn energy_j(
+        &self,
+        law: &dyn StrainEnergy,
+        position_m: &[Vector3<f64>],
+    ) -> Result<f64, FemError> {
+        let mut e = 0.0;
+        for (k, hex) in self.hexes.iter().enumerate() {
+            let x = self.corners(k, position_m);
+            for g in 0..8 {
+                let (_, w) = isochoric(law, &hex.deformation(g, &x))
+                    .ok_or(FemError::Collapsed { element: k })?;
+                e += hex.weights_m3[g] * w;
+            }
+            let jbar = hex.volume_m3(&x) / hex.volume_m3;
+            e += hex.volume_m3 * 0.5 * self.bulk_modulus_pa * (jbar - 1.0).powi(2);
+        }
+        Ok(e)
+    }
+
+    /// Adds the internal nodal forces ∂E/∂x (N) to `out`.
+    pub fn add_internal_forces_n(
+        &self,
+        law: &dyn StrainEnergy,
+        position_m: &[Vector3<f64>],
+        out: &mut [Vector3<f64>],
+    ) -> Result<(), FemError> {
+        for (k, hex) in self.hexes.iter().enumerate() {
+            let x = self.corners(k, position_m);
+            let f: [Matrix3<f64>; 8] = std::array::from_fn(|g| hex.deformation(g, &x));
+            let jbar = (0..8)
+                .map(|g| hex.weights_m3[g] * f[g].determinant())
+                .sum::<f64>()
+                / hex.volume_m3;
+            let pbar = self.bulk_modulus_pa * (jbar - 1.0);
+            for (g, fg) in f.iter().enumerate() {
+                let (p_iso, _) = isochoric(law, fg).ok_or(FemError::Collapsed { element: k })?;
+                let cof = fg
+                    .try_inverse()
+                    .ok_or(FemError::Collapsed { element: k })?
+                    .transpose()
+                    * fg.determinant();
+                let p = (p_iso + cof * pbar) * hex.weights_m3[g];
+                for (a, grad) in hex.nodes.iter().zip(&hex.gradients_per_m[g]) {
+                    out[*a] += p * grad;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The state of hexahedron `k`: J̄, p̄ and the Cauchy stress at its
+    /// centre, σ = P_iso·Fᵀ/J + p̄·1.
+    pub fn state(
+        &self,
+        law: &dyn StrainEnergy,
+        k: usize,
+        position_m: &[Vector3<f64>],
+    ) -> Result<HexState, FemError> {
+        let hex = &self.hexes[k];
+        let x = self.corners(k, position_m);
+        let jbar = hex.volume_m3(&x) / hex.volume_m3;
+        let pbar = self.bulk_modulus_pa * (jbar - 1.0);
+        let f = hex.deformation(8, &x);
+        let (p_iso, _) = isochoric(law, &f).ok_or(FemError::Collapsed { element: k })?;
+        let cauchy = p_iso * f.transpose() / f.determinant() + Matrix3::identity() * pbar;
+        Ok(HexState {
+            volume_ratio: jbar,
+            mean_stress_pa: pbar,
+            cauchy_pa: 0.5 * (cauchy + cauchy.transpose()),
+        })
+    }
+
+    /// A stable explicit step (s) at the current positions: a conservative
+    /// fraction of the shortest edge's transit time at the dilatational
+    /// wave speed √((K + 4/3·μ_t)/ρ), μ_t a bound on the law's tangent
+    /// shear modulus at the element's strain.
+    pub fn stable_time_step_s(
+        &self,
+        law: &dyn StrainEnergy,
+        density_kg_m3: f64,
+        position_m: &[Vector3<f64>],
+    ) -> Result<f64, FemError> {
+        let mut dt = f64::INFINITY;
+        for (k, hex) in self.hexes.iter().enumerate() {
+            let x = self.corners(k, position_m);
+            let f = hex.deformation(8, &x);
+            let j = f.determinant();
+            if !(j > 0.0 && j.is_finite()) {
+                return Err(FemError::Collapsed { element: k });
+            }
+            let c = f.transpose() * f;
+            let i1 = c.trace();
+            let i2 = 0.5 * (i1 * i1 - (c * c).trace());
+            let (b1, b2) = (j.powf(-2.0 / 3.0) * i1, j.powf(-4.0 / 3.0) * i2);
+            let w1 = law.dw_di1_kpa(b1, b2).abs();
+            let w2 = law.dw_di2_kpa(b1, b2).abs();
+            let w11 = law.d2w_di1_di1_kpa(b1, b2).abs();
+            let w12 = law.d2w_di1_di2_kpa(b1, b2).abs();
+            let w22 = law.d2w_di2_di2_kpa(b1, b2).abs();
+            // Largest squared stretch ≤ tr C; small strain: 2·W1 = μ.
+            let shear = PA_PER_KPA
+                * (2.0 * (w1 + w2 * b1) * i1 + 4.0 * (w11 + 2.0 * w12 + w22) * b1 * b1 * i1);
+            let modulus = self.bulk_modulus_pa + 4.0 / 3.0 * shear;
+            dt = dt.min(Hex::min_edge_m(&x) / (modulus / density_kg_m3).sqrt());
+        }
+        // 1/√3 is a cube's limit with lumped masses; a margin below it.
+        Ok(0.4 * dt)
+    }
+
+    /// Lumped nodal masses (kg): each element's rest mass in eighths.
+    pub fn lumped_masses_kg(&self, density_kg_m3: f64, out: &mut [f64]) {
+        for hex in &self.hexes {
+            for a in hex.nodes {
+                out[a] += density_kg_m3 * hex.volume_m3 / 8.0;
+            }
+        }
+    }
+}

@@ -1,0 +1,251 @@
+//! The solid skin (hexahedra through the wall, `fem::solid`) against the
+//! closed-form thick-walled tube of the same law, and the consistency of
+//! its forces with its energy.
+
+use host_sim::fem::{vtk, Ends, Skin, SkinSpec};
+use host_sim::skin::membrane::{self, Tube};
+use host_sim::skin::{default_skin, Yeoh};
+use nalgebra::{Rotation3, Vector3};
+
+/// The paper's zone as a solid wall `layers` hexahedra thick.
+fn solid_spec(around: usize, along: usize, layers: usize) -> SkinSpec {
+    SkinSpec {
+        layers,
+        ..SkinSpec::paper(around, along)
+    }
+}
+
+/// A deterministic, non-symmetric finite deformation of a solid skin
+/// (stretch ~1.3 plus ±0.1 mm wobble; the wall is 1.75 mm thick).
+fn perturbed(spec: &SkinSpec) -> Skin<Yeoh> {
+    let mut skin = Skin::new(default_skin(), spec, Ends::PlaneStrain).unwrap();
+    for (a, x) in skin.position_m.iter_mut().enumerate() {
+        let s = a as f64;
+        *x = Vector3::new(1.3 * x.x, 1.25 * x.y, 1.1 * x.z)
+            + Vector3::new((1.7 * s).sin(), (2.3 * s).cos(), (0.9 * s).sin()) * 1e-4;
+    }
+    skin
+}
+
+#[test]
+fn solid_forces_are_the_gradient_of_its_energy() {
+    let mut skin = perturbed(&solid_spec(8, 2, 2));
+    let mut f = vec![Vector3::zeros(); skin.node_count()];
+    skin.internal_forces_n(&mut f).unwrap();
+    let scale = f.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    assert!(scale > 0.0);
+    let h = 1e-9;
+    let mut worst = 0.0f64;
+    for (a, fa) in f.iter().enumerate() {
+        for k in 0..3 {
+            let x0 = skin.position_m[a][k];
+            skin.position_m[a][k] = x0 + h;
+            let ep = skin.strain_energy_j().unwrap();
+            skin.position_m[a][k] = x0 - h;
+            let em = skin.strain_energy_j().unwrap();
+            skin.position_m[a][k] = x0;
+            worst = worst.max(((ep - em) / (2.0 * h) - fa[k]).abs() / scale);
+        }
+    }
+    println!("largest |f − dE/dx| / max|f| = {worst:.2e}");
+    assert!(worst < 1e-6, "{worst}");
+}
+
+#[test]
+fn rigid_motions_leave_the_solid_without_energy_or_force() {
+    let rest = Skin::new(default_skin(), &solid_spec(8, 2, 2), Ends::PlaneStrain).unwrap();
+    assert!(rest.strain_energy_j().unwrap().abs() < 1e-15);
+    assert!(rest.von_mises_pa().unwrap().iter().all(|s| s.abs() < 1e-6));
+    let mut skin = perturbed(&solid_spec(8, 2, 2));
+    let e0 = skin.strain_energy_j().unwrap();
+    let mut f0 = vec![Vector3::zeros(); skin.node_count()];
+    skin.internal_forces_n(&mut f0).unwrap();
+    let rot = Rotation3::from_euler_angles(0.4, -1.1, 2.0);
+    for x in skin.position_m.iter_mut() {
+        *x = rot * *x + Vector3::new(0.01, -0.02, 0.005);
+    }
+    let e1 = skin.strain_energy_j().unwrap();
+    assert!((e1 - e0).abs() < 1e-12 * e0, "{e0} vs {e1}");
+    let mut f1 = vec![Vector3::zeros(); skin.node_count()];
+    skin.internal_forces_n(&mut f1).unwrap();
+    for (a, b) in f0.iter().zip(&f1) {
+        assert!((rot * a - b).norm() < 1e-9 * a.norm().max(1e-9));
+    }
+    let total: Vector3<f64> = f1.iter().sum();
+    assert!(total.norm() < 1e-9 * f1.iter().map(|v| v.norm()).sum::<f64>());
+}
+
+/// Relaxes `skin` under `pressure_pa` and returns (outer diameter at
+/// mid-length (mm), the closed-form tube's pressure at that diameter
+/// (Pa), the largest element von Mises stress (Pa), the closed form's
+/// (Pa)).
+fn inflate(skin: &mut Skin<Yeoh>, pressure_pa: f64, ends: membrane::Ends) -> (f64, f64, f64, f64) {
+    skin.pressure_pa = pressure_pa;
+    let spec = skin.spec;
+    skin.relax(
+        1e-9 * pressure_pa * spec.length_m * spec.mid_radius_m,
+        2_000_000,
+    )
+    .unwrap();
+    let d_mm = skin.outer_diameter_at_mid_length_m() * 1e3;
+    let tube = Tube::paper(default_skin(), ends);
+    let state = tube.state(d_mm).unwrap();
+    let vm = skin.von_mises_pa().unwrap().into_iter().fold(0.0, f64::max);
+    (
+        d_mm,
+        state.pressure_kpa * 1e3,
+        vm,
+        state.max_von_mises_kpa * 1e3,
+    )
+}
+
+#[test]
+fn a_solid_tube_in_plane_strain_inflates_as_the_closed_form_thick_tube_within_2_percent() {
+    let mut skin = Skin::new(default_skin(), &solid_spec(48, 1, 4), Ends::PlaneStrain).unwrap();
+    for p in [300.0, 600.0] {
+        let (d, want, vm, vm_want) = inflate(&mut skin, p, membrane::Ends::PlaneStrain);
+        let err = (p - want) / want;
+        println!(
+            "plane strain: p = {p} Pa → D = {d:.3} mm; closed form at that D {want:.1} Pa ({:+.2} %); max von Mises {vm:.0} Pa, closed form (inner surface) {vm_want:.0} Pa",
+            100.0 * err
+        );
+        assert!(d > 19.5, "{d}");
+        assert!(err.abs() < 0.02, "{err}");
+        // The element centres lie inside the wall (the innermost ⅛ of the
+        // thickness out), where the stress is a little below the inner
+        // surface's peak.
+        assert!(vm < vm_want && vm > 0.9 * vm_want, "{vm} vs {vm_want}");
+    }
+}
+
+/// Relaxes a closed-ended solid tube (bulk modulus × `bulk_scale`) at
+/// `pressure_pa` and returns (pressure error against the closed form at
+/// the diameter reached, axial stretch of the middle ring, the closed
+/// form's, the wall's largest volume change |J̄ − 1|).
+fn closed_tube(pressure_pa: f64, bulk_scale: f64) -> (f64, f64, f64, f64) {
+    let mut skin = Skin::new(default_skin(), &solid_spec(32, 8, 2), Ends::Closed).unwrap();
+    if let Some(s) = &mut skin.solid {
+        s.bulk_modulus_pa *= bulk_scale;
+    }
+    let (d, want, _, _) = inflate(&mut skin, pressure_pa, membrane::Ends::Closed);
+    // The middle ring, away from the cap's load, through the wall.
+    let j = skin.mesh.middle_ring();
+    let ring: Vec<usize> = skin.ring_nodes(j).collect();
+    let z = ring.iter().map(|&a| skin.position_m[a].z).sum::<f64>() / ring.len() as f64;
+    let lz = z / skin.mesh.ring_z_m[j];
+    let lz_want = Tube::paper(default_skin(), membrane::Ends::Closed)
+        .axial_stretch(d)
+        .unwrap();
+    let solid = skin.solid.as_ref().unwrap();
+    let dj = (0..solid.hexes.len())
+        .map(|k| {
+            (solid
+                .state(&skin.law, k, &skin.position_m)
+                .unwrap()
+                .volume_ratio
+                - 1.0)
+                .abs()
+        })
+        .fold(0.0, f64::max);
+    let err = (pressure_pa - want) / want;
+    println!(
+        "closed ends, K × {bulk_scale}: p = {pressure_pa} Pa → D = {d:.3} mm; closed form {want:.1} Pa ({:+.2} %); λz {lz:.5} vs {lz_want:.5}; largest |J̄ − 1| {dj:.2e}",
+        100.0 * err
+    );
+    (err, lz, lz_want, dj)
+}
+
+#[test]
+fn a_closed_solid_tube_inflates_and_lengthens_as_the_closed_form() {
+    let mut gap_300 = 0.0;
+    for p in [300.0, 600.0] {
+        let (err, lz, lz_want, dj) = closed_tube(p, 1.0);
+        assert!(err.abs() < 0.02, "{err}");
+        // The lengthening is a small difference (the hoop swelling shortens
+        // the wall, the cap's pull lengthens it), so the compressibility
+        // shows in it, by no more than the wall's own volume change ...
+        assert!(
+            (lz - lz_want).abs() < dj,
+            "{lz} vs {lz_want}, |J̄ − 1| ≤ {dj}"
+        );
+        if p == 300.0 {
+            gap_300 = (lz - lz_want).abs();
+        }
+    }
+    // ... and it goes with it: four times stiffer in bulk, the gap to the
+    // incompressible closed form shrinks by more than half.
+    let (err, lz, lz_want, dj) = closed_tube(300.0, 4.0);
+    assert!(err.abs() < 0.02, "{err}");
+    let gap = (lz - lz_want).abs();
+    assert!(
+        gap < 0.5 * gap_300 && gap < dj,
+        "{gap} against {gap_300} at K × 1"
+    );
+}
+
+#[test]
+fn the_bulk_modulus_is_stiff_enough_not_to_matter() {
+    let spec = solid_spec(24, 1, 2);
+    let mut d = [0.0; 2];
+    for (k, ratio) in [1.0, 2.0].into_iter().enumerate() {
+        let mut skin = Skin::new(default_skin(), &spec, Ends::PlaneStrain).unwrap();
+        if let Some(s) = &mut skin.solid {
+            s.bulk_modulus_pa *= ratio;
+        }
+        d[k] = inflate(&mut skin, 500.0, membrane::Ends::PlaneStrain).0;
+    }
+    let rel = (d[1] - 18.7) / (d[0] - 18.7) - 1.0;
+    println!(
+        "K × 2: the swelling D − D0 changes by {:+.3} %",
+        100.0 * rel
+    );
+    assert!(rel.abs() < 0.01, "{rel}");
+}
+
+#[test]
+fn the_explicit_step_is_stable_at_the_solid_stable_step() {
+    // A sudden pressure, stepped at the estimated stable step with light
+    // damping: the wall swells and rings down without blowing up.
+    let mut skin = Skin::new(default_skin(), &solid_spec(24, 2, 2), Ends::Clamped).unwrap();
+    skin.pressure_pa = 600.0;
+    skin.damping_per_s = 200.0;
+    let mut dt = skin.stable_time_step_s().unwrap();
+    for k in 0..20_000 {
+        if k % 64 == 0 {
+            dt = skin.stable_time_step_s().unwrap();
+        }
+        skin.step(dt).unwrap();
+    }
+    let d = skin.outer_diameter_at_mid_length_m() * 1e3;
+    let v_max = skin
+        .velocity_m_s
+        .iter()
+        .map(|v| v.norm())
+        .fold(0.0, f64::max);
+    println!(
+        "after {:.1} ms: D = {d:.3} mm, fastest node {v_max:.2e} m/s, dt = {dt:.2e} s",
+        skin.time_s * 1e3
+    );
+    assert!(d > 19.0 && d < 26.0, "{d}");
+    assert!(v_max < 0.05, "{v_max}");
+}
+
+#[test]
+fn the_vtk_file_holds_the_solid_hexahedra() {
+    let mut skin = Skin::new(default_skin(), &solid_spec(12, 2, 2), Ends::Clamped).unwrap();
+    skin.pressure_pa = 300.0;
+    skin.relax(1e-7, 400_000).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("skin.vtk");
+    vtk::write_vtk(&skin, &path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let n = skin.node_count();
+    let m = skin.solid.as_ref().unwrap().hexes.len();
+    assert_eq!(n, 12 * 3 * 3);
+    assert_eq!(m, 12 * 2 * 2);
+    assert!(text.contains("DATASET UNSTRUCTURED_GRID"));
+    assert!(text.contains(&format!("CELLS {m} {}", 9 * m)));
+    assert_eq!(text.lines().filter(|l| *l == "12").count(), m);
+    assert!(text.contains(&format!("CELL_DATA {m}\nSCALARS von_mises_pa")));
+    assert!(text.contains(&format!("POINT_DATA {n}")));
+}
