@@ -97,6 +97,11 @@ enum Command {
         /// (a head on a rigid body) instead of freeing it.
         #[arg(long = "head-held")]
         head_held: bool,
+        /// The skin as a solid wall this many hexahedra thick (the paper's
+        /// element family; rows graded to 0.35 mm at the clamped ends)
+        /// instead of the mid-surface membrane. Slower: see README-simulate.
+        #[arg(long = "solid-skin", value_name = "LAYERS")]
+        solid_skin: Option<usize>,
         /// Finer grains (this radius, mm) in a block in front of the head,
         /// so more grains bear on its face; the time step follows them.
         #[arg(long = "face-grain-radius-mm")]
@@ -348,6 +353,7 @@ fn run(cli: Cli) -> Result<()> {
             advance_mm,
             advance_hold_ms,
             head_held,
+            solid_skin,
             face_grain_radius_mm,
             grain_modulus_mpa,
             deposition_modulus_mpa,
@@ -392,6 +398,10 @@ fn run(cli: Cli) -> Result<()> {
             spec.advance_m = advance_mm * 1e-3;
             spec.advance_hold_s = advance_hold_ms * 1e-3;
             spec.head_held = head_held;
+            if let Some(layers) = solid_skin {
+                anyhow::ensure!(layers >= 1, "--solid-skin: at least 1 layer");
+                spec = spec.with_solid(layers);
+            }
             spec.grain_modulus_pa = grain_modulus_mpa * 1e6;
             spec.deposition_modulus_pa = deposition_modulus_mpa * 1e6;
             if let Some(t) = expansion_s {

@@ -638,3 +638,48 @@ fn the_shell_skin_bends_where_it_leaves_the_body_and_the_head() {
     }
     assert!(peaks[1] > 1.3 * peaks[0], "{peaks:?}");
 }
+
+#[test]
+fn a_solid_skin_carries_the_faces_load_back_to_the_body_and_touches_the_sand_with_its_outer_face() {
+    // The tiny bed advanced into, the head then freed, with the membrane
+    // and with the solid wall of `with_solid`. A membrane has no stiffness
+    // in compression, so the loaded face pushes the head back at once; the
+    // solid wall resists as a tube does and the head stays nearly where
+    // the advance left it. Both touch the sand as they swell.
+    let run = |layers: usize| {
+        let spec = tiny(2.5e-3, 0.4, 0.04, 1);
+        // One layer on a coarse uniform mesh: the case's graded mesh is
+        // for the fold at the clamp, not needed here, and ten times slower.
+        let spec = if layers > 0 {
+            ScenarioSpec {
+                skin_mesh: (16, 4),
+                skin_end_row_m: None,
+                ..spec.with_solid(layers)
+            }
+        } else {
+            spec
+        };
+        simulate(&Options {
+            spec,
+            out: None,
+            progress: false,
+        })
+        .unwrap()
+    };
+    let recoil = |r: &host_sim::simulate::Report| {
+        r.samples
+            .iter()
+            .map(|s| s.head_receding_m)
+            .fold(0.0, f64::max)
+    };
+    let membrane = run(0);
+    let solid = run(1);
+    assert!(solid.text().contains("skin: solid wall 1 hexahedron thick"));
+    let (rm, rs) = (recoil(&membrane), recoil(&solid));
+    println!("largest D_r: membrane {rm:.2e} m, solid {rs:.2e} m");
+    assert!(rm > 0.05e-3 && rs < 0.5 * rm, "membrane {rm}, solid {rs}");
+    let last = solid.samples.last().unwrap();
+    assert!(last.contacts > 0 && last.sand_pressure_pa > 0.0);
+    assert!(last.outer_diameter_m > 24e-3, "{}", last.outer_diameter_m);
+    assert!(last.max_von_mises_pa > 0.0 && last.max_bending_strain.is_none());
+}

@@ -32,6 +32,7 @@
 //! a reduced-integration C3D8R reports it.
 
 use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
 
 use super::element::PA_PER_KPA;
 use super::mesh::TubeMesh;
@@ -171,9 +172,18 @@ fn local_gradients(at: [f64; 3]) -> [Vector3<f64>; 8] {
     })
 }
 
-/// Invariants of C = FᵀF and the isochoric first Piola–Kirchhoff stress
-/// (Pa) and energy density (Pa) of `law` at `f`; `None` when J ≤ 0.
-fn isochoric(law: &dyn StrainEnergy, f: &Matrix3<f64>) -> Option<(Matrix3<f64>, f64)> {
+/// The invariants of F: I1 and I2 of C = FᵀF, J^(−2/3), the isochoric
+/// Ī1 = J^(−2/3)·I1 and Ī2 = J^(−4/3)·I2, and C; `None` when J ≤ 0.
+struct Invariants {
+    i1: f64,
+    i2: f64,
+    j23: f64,
+    bar1: f64,
+    bar2: f64,
+    c: Matrix3<f64>,
+}
+
+fn invariants(f: &Matrix3<f64>) -> Option<Invariants> {
     let j = f.determinant();
     if !(j > 0.0 && j.is_finite()) {
         return None;
@@ -181,15 +191,56 @@ fn isochoric(law: &dyn StrainEnergy, f: &Matrix3<f64>) -> Option<(Matrix3<f64>, 
     let c = f.transpose() * f;
     let i1 = c.trace();
     let i2 = 0.5 * (i1 * i1 - (c * c).trace());
-    let (j23, j43) = (j.powf(-2.0 / 3.0), j.powf(-4.0 / 3.0));
-    let (b1, b2) = (j23 * i1, j43 * i2);
-    let w1 = law.dw_di1_kpa(b1, b2) * PA_PER_KPA;
-    let w2 = law.dw_di2_kpa(b1, b2) * PA_PER_KPA;
-    let f_inv_t = f.try_inverse()?.transpose();
-    let p = (f - f_inv_t * (i1 / 3.0)) * (2.0 * w1 * j23)
-        + (f * i1 - f * c - f_inv_t * (2.0 * i2 / 3.0)) * (2.0 * w2 * j43);
-    Some((p, law.energy_kpa(b1, b2) * PA_PER_KPA))
+    let y = inverse_cube_root(j);
+    let j23 = y * y;
+    Some(Invariants {
+        i1,
+        i2,
+        j23,
+        bar1: j23 * i1,
+        bar2: j23 * j23 * i2,
+        c,
+    })
 }
+
+/// J^(−1/3). The wall stays within a few per cent of its volume, where
+/// three Newton steps from the linear guess reach the last bit; elsewhere
+/// (a collapsing element) the library root. The software cube root was
+/// the element loop's hot spot.
+fn inverse_cube_root(j: f64) -> f64 {
+    if (j - 1.0).abs() > 0.05 {
+        return 1.0 / j.cbrt();
+    }
+    let mut y = 1.0 - (j - 1.0) / 3.0;
+    for _ in 0..3 {
+        y *= (4.0 - j * y * y * y) / 3.0;
+    }
+    y
+}
+
+/// The isochoric first Piola–Kirchhoff stress (Pa) of `law` at `f`, and
+/// F⁻ᵀ; `None` when J ≤ 0.
+fn isochoric_stress(
+    law: &dyn StrainEnergy,
+    f: &Matrix3<f64>,
+) -> Option<(Matrix3<f64>, Matrix3<f64>)> {
+    let v = invariants(f)?;
+    let w1 = law.dw_di1_kpa(v.bar1, v.bar2) * PA_PER_KPA;
+    let w2 = law.dw_di2_kpa(v.bar1, v.bar2) * PA_PER_KPA;
+    let f_inv_t = f.try_inverse()?.transpose();
+    let p = (f - f_inv_t * (v.i1 / 3.0)) * (2.0 * w1 * v.j23)
+        + (f * v.i1 - f * v.c - f_inv_t * (2.0 * v.i2 / 3.0)) * (2.0 * w2 * v.j23 * v.j23);
+    Some((p, f_inv_t))
+}
+
+/// The isochoric energy density (Pa) of `law` at `f`; `None` when J ≤ 0.
+fn isochoric_energy_pa(law: &dyn StrainEnergy, f: &Matrix3<f64>) -> Option<f64> {
+    let v = invariants(f)?;
+    Some(law.energy_kpa(v.bar1, v.bar2) * PA_PER_KPA)
+}
+
+/// Hexahedra per parallel work item in the force loop.
+const CHUNK: usize = 64;
 
 /// The skin's wall as hexahedra: `layers` through the thickness on the
 /// structured tube mesh, nodes numbered layer by layer (layer l, tube-mesh
@@ -302,7 +353,7 @@ impl Solid {
         for (k, hex) in self.hexes.iter().enumerate() {
             let x = self.corners(k, position_m);
             for g in 0..8 {
-                let (_, w) = isochoric(law, &hex.deformation(g, &x))
+                let w = isochoric_energy_pa(law, &hex.deformation(g, &x))
                     .ok_or(FemError::Collapsed { element: k })?;
                 e += hex.weights_m3[g] * w;
             }
@@ -312,35 +363,51 @@ impl Solid {
         Ok(e)
     }
 
-    /// Adds the internal nodal forces ∂E/∂x (N) to `out`.
-    pub fn add_internal_forces_n(
+    /// Adds the internal nodal forces ∂E/∂x (N) to `out`. The elements
+    /// are evaluated in parallel and summed into `out` in element order,
+    /// so the result is the same whatever the thread count.
+    pub fn add_internal_forces_n<S: StrainEnergy>(
         &self,
-        law: &dyn StrainEnergy,
+        law: &S,
         position_m: &[Vector3<f64>],
         out: &mut [Vector3<f64>],
     ) -> Result<(), FemError> {
-        for (k, hex) in self.hexes.iter().enumerate() {
-            let x = self.corners(k, position_m);
-            let f: [Matrix3<f64>; 8] = std::array::from_fn(|g| hex.deformation(g, &x));
-            let jbar = (0..8)
-                .map(|g| hex.weights_m3[g] * f[g].determinant())
-                .sum::<f64>()
-                / hex.volume_m3;
-            let pbar = self.bulk_modulus_pa * (jbar - 1.0);
-            for (g, fg) in f.iter().enumerate() {
-                let (p_iso, _) = isochoric(law, fg).ok_or(FemError::Collapsed { element: k })?;
-                let cof = fg
-                    .try_inverse()
-                    .ok_or(FemError::Collapsed { element: k })?
-                    .transpose()
-                    * fg.determinant();
-                let p = (p_iso + cof * pbar) * hex.weights_m3[g];
-                for (a, grad) in hex.nodes.iter().zip(&hex.gradients_per_m[g]) {
-                    out[*a] += p * grad;
-                }
+        let forces: Vec<Result<[Vector3<f64>; 8], FemError>> = (0..self.hexes.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|k| self.hex_forces_n(law, k, position_m))
+            .collect();
+        for (hex, f) in self.hexes.iter().zip(forces) {
+            for (a, fa) in hex.nodes.iter().zip(f?) {
+                out[*a] += fa;
             }
         }
         Ok(())
+    }
+
+    /// The nodal forces (N) of hexahedron `k`.
+    fn hex_forces_n(
+        &self,
+        law: &dyn StrainEnergy,
+        k: usize,
+        position_m: &[Vector3<f64>],
+    ) -> Result<[Vector3<f64>; 8], FemError> {
+        let hex = &self.hexes[k];
+        let x = self.corners(k, position_m);
+        let f: [Matrix3<f64>; 8] = std::array::from_fn(|g| hex.deformation(g, &x));
+        let det: [f64; 8] = std::array::from_fn(|g| f[g].determinant());
+        let jbar = (0..8).map(|g| hex.weights_m3[g] * det[g]).sum::<f64>() / hex.volume_m3;
+        let pbar = self.bulk_modulus_pa * (jbar - 1.0);
+        let mut out = [Vector3::zeros(); 8];
+        for (g, fg) in f.iter().enumerate() {
+            let (p_iso, f_inv_t) =
+                isochoric_stress(law, fg).ok_or(FemError::Collapsed { element: k })?;
+            let p = (p_iso + f_inv_t * (det[g] * pbar)) * hex.weights_m3[g];
+            for (o, grad) in out.iter_mut().zip(&hex.gradients_per_m[g]) {
+                *o += p * grad;
+            }
+        }
+        Ok(out)
     }
 
     /// The state of hexahedron `k`: J̄, p̄ and the Cauchy stress at its
@@ -356,7 +423,7 @@ impl Solid {
         let jbar = hex.volume_m3(&x) / hex.volume_m3;
         let pbar = self.bulk_modulus_pa * (jbar - 1.0);
         let f = hex.deformation(8, &x);
-        let (p_iso, _) = isochoric(law, &f).ok_or(FemError::Collapsed { element: k })?;
+        let (p_iso, _) = isochoric_stress(law, &f).ok_or(FemError::Collapsed { element: k })?;
         let cauchy = p_iso * f.transpose() / f.determinant() + Matrix3::identity() * pbar;
         Ok(HexState {
             volume_ratio: jbar,
@@ -379,14 +446,8 @@ impl Solid {
         for (k, hex) in self.hexes.iter().enumerate() {
             let x = self.corners(k, position_m);
             let f = hex.deformation(8, &x);
-            let j = f.determinant();
-            if !(j > 0.0 && j.is_finite()) {
-                return Err(FemError::Collapsed { element: k });
-            }
-            let c = f.transpose() * f;
-            let i1 = c.trace();
-            let i2 = 0.5 * (i1 * i1 - (c * c).trace());
-            let (b1, b2) = (j.powf(-2.0 / 3.0) * i1, j.powf(-4.0 / 3.0) * i2);
+            let v = invariants(&f).ok_or(FemError::Collapsed { element: k })?;
+            let (i1, b1, b2) = (v.i1, v.bar1, v.bar2);
             let w1 = law.dw_di1_kpa(b1, b2).abs();
             let w2 = law.dw_di2_kpa(b1, b2).abs();
             let w11 = law.d2w_di1_di1_kpa(b1, b2).abs();

@@ -137,7 +137,10 @@ impl Report {
             match (self.spec.skin_layers, self.spec.skin_bending) {
                 (0, false) => "membrane".to_string(),
                 (0, true) => "shell".to_string(),
-                (n, _) => format!("solid, {n} hexahedra through the wall"),
+                (n, _) => format!(
+                    "solid wall {n} {} thick",
+                    if n == 1 { "hexahedron" } else { "hexahedra" }
+                ),
             },
             if self.spec.round_zone {
                 ", rings held round"
