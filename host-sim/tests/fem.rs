@@ -1,6 +1,7 @@
 //! The FEM skin against the closed-form tube inflation (the membrane, and
 //! the shell with its bending), the closed-form edge bending of a clamped
-//! tube, and the consistency of its internal forces with its energy.
+//! tube, and the consistency of its internal forces with its energy (the
+//! solid wall's too).
 
 use host_sim::fem::{Ends, Skin, SkinSpec, VolumeControl};
 use host_sim::skin::membrane::{self, Tube, TubeGeometry};
@@ -43,6 +44,15 @@ fn membrane_spec(around: usize, along: usize) -> SkinSpec {
 fn shell_spec(around: usize, along: usize) -> SkinSpec {
     SkinSpec {
         bending: true,
+        ..SkinSpec::paper(around, along)
+    }
+}
+
+/// The paper's zone as a solid wall `layers` hexahedra thick
+/// (`tests/solid.rs` checks it against the thick tube).
+fn solid_spec(around: usize, along: usize, layers: usize) -> SkinSpec {
+    SkinSpec {
+        layers,
         ..SkinSpec::paper(around, along)
     }
 }
@@ -168,6 +178,7 @@ fn internal_forces_are_the_gradient_of_the_strain_energy() {
         (shell_spec(12, 3), Ends::Clamped),
         (shell_spec(12, 4), Ends::PlaneStrain),
         (membrane_spec(12, 3), Ends::Clamped),
+        (solid_spec(8, 2, 2), Ends::PlaneStrain),
     ] {
         forces_match_the_energy_gradient(perturbed_skin(&spec, ends));
     }
@@ -211,7 +222,7 @@ fn worst_gradient_error(
 fn rigid_motions_leave_no_energy_or_force() {
     // Free ends: clamped ones are tied to the body's frame. The shell and
     // the membrane.
-    for spec in [shell_spec(12, 3), membrane_spec(12, 3)] {
+    for spec in [shell_spec(12, 3), membrane_spec(12, 3), solid_spec(8, 2, 2)] {
         rigid_motion_leaves_no_energy_or_force(perturbed_skin(&spec, Ends::PlaneStrain));
     }
     // At rest: no energy, no force, no stress.

@@ -19,6 +19,12 @@
 //! ([`mesh::TubeMesh::graded`]) so the bending layer at the clamped ends
 //! is resolved.
 //!
+//! With [`SkinSpec::layers`] ≥ 1 the wall is a solid ([`solid`]):
+//! hexahedra through its thickness, the law made slightly compressible,
+//! the fluid on the inner surface and the sand on the outer one; the node
+//! arrays then hold every layer, and [`Skin::elements`] is the outer
+//! surface the sand touches.
+//!
 //! SI units throughout (m, kg, s, N, Pa), like the DEM it is coupled to.
 //!
 //! ```
@@ -424,7 +430,9 @@ impl<S: StrainEnergy> Skin<S> {
             .chain(membrane.into_iter().flatten())
     }
 
-    /// Strain of element `k` at the current positions.
+    /// Membrane strain of surface element `k` at the current positions
+    /// (of a solid wall: its outer face's stretch, which carries no
+    /// mechanics; the wall's own state is [`Solid::state`]).
     pub fn strain(&self, k: usize) -> Result<Strain, FemError> {
         let tri = &self.elements[k];
         tri.strain(tri.nodes.map(|a| self.position_m[a]))
