@@ -640,12 +640,12 @@ fn the_shell_skin_bends_where_it_leaves_the_body_and_the_head() {
 }
 
 #[test]
-fn a_solid_skin_carries_the_faces_load_back_to_the_body_and_touches_the_sand_with_its_outer_face() {
+fn a_solid_skin_recoils_less_than_the_membrane_and_touches_the_sand_with_its_outer_face() {
     // The tiny bed advanced into, the head then freed, with the membrane
     // and with the solid wall of `with_solid`. A membrane has no stiffness
     // in compression, so the loaded face pushes the head back at once; the
-    // solid wall resists as a tube does and the head stays nearly where
-    // the advance left it. Both touch the sand as they swell.
+    // solid wall resists as a tube does and the head recedes less than
+    // half as far. Both touch the sand as they swell.
     let run = |layers: usize| {
         let spec = tiny(2.5e-3, 0.4, 0.04, 1);
         // One layer on a coarse uniform mesh: the case's graded mesh is
