@@ -645,16 +645,19 @@ impl<S: StrainEnergy> Skin<S> {
         }
         let layers = self.layers();
         if let Some(head) = &mut self.head {
-            let ring: Vec<usize> = layered_ring(&self.mesh, layers, self.mesh.along).collect();
+            let front = self.mesh.along;
             // The head and its ring move as one rigid body along z.
-            let m = head.mass_kg + ring.iter().map(|&a| self.mass_kg[a]).sum::<f64>();
+            let m = head.mass_kg
+                + layered_ring(&self.mesh, layers, front)
+                    .map(|a| self.mass_kg[a])
+                    .sum::<f64>();
             let f = head_n + head.external_force_n;
             head.velocity_m_s = match head.driven_m_s {
                 Some(v) => v,
                 None => (head.velocity_m_s * (1.0 - c) + f * (dt_s / m)) / (1.0 + c),
             };
             head.displacement_m += head.velocity_m_s * dt_s;
-            for a in ring {
+            for a in layered_ring(&self.mesh, layers, front) {
                 self.position_m[a].z = self.rest_m[a].z + head.displacement_m;
                 self.velocity_m_s[a].z = head.velocity_m_s;
             }
@@ -754,8 +757,10 @@ impl<S: StrainEnergy> Skin<S> {
     /// Mean current mid-surface radius of ring `j` about the z axis (m):
     /// of a solid, the mean of its inner and outer surfaces'.
     pub fn ring_radius_m(&self, j: usize) -> f64 {
-        let layers = self.layers();
-        0.5 * (self.layer_ring_radius_m(0, j) + self.layer_ring_radius_m(layers, j))
+        match self.layers() {
+            0 => self.layer_ring_radius_m(0, j),
+            outer => 0.5 * (self.layer_ring_radius_m(0, j) + self.layer_ring_radius_m(outer, j)),
+        }
     }
 
     /// Mean current radius of ring `j` of layer `l` (m).
