@@ -201,3 +201,24 @@ fn the_vtk_file_holds_the_solid_hexahedra() {
     assert!(text.contains(&format!("CELL_DATA {m}\nSCALARS von_mises_pa")));
     assert!(text.contains(&format!("POINT_DATA {n}")));
 }
+
+#[test]
+fn the_solid_forces_are_the_same_bits_on_one_thread_and_on_many() {
+    // Enough elements for several parallel work items.
+    let mut skin = Skin::new(default_skin(), &solid_spec(24, 8, 2), Ends::Clamped).unwrap();
+    for (a, x) in skin.position_m.iter_mut().enumerate() {
+        let s = a as f64;
+        *x = Vector3::new(1.2 * x.x, 1.15 * x.y, x.z)
+            + Vector3::new((1.7 * s).sin(), (2.3 * s).cos(), (0.9 * s).sin()) * 1e-4;
+    }
+    let forces = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut f = vec![Vector3::zeros(); skin.node_count()];
+        pool.install(|| skin.internal_forces_n(&mut f)).unwrap();
+        f
+    };
+    assert_eq!(forces(1), forces(4));
+}
