@@ -325,7 +325,9 @@ impl<S: StrainEnergy> Skin<S> {
             (None, mesh.rest_m.clone())
         };
         let n = rest_m.len();
-        let surface = solid.as_ref().map_or(mesh.triangles.clone(), |s| s.outer());
+        let surface = solid
+            .as_ref()
+            .map_or_else(|| mesh.triangles.clone(), |s| s.outer(&mesh));
         let mut elements = Vec::with_capacity(surface.len());
         let mut mass_kg = vec![0.0; n];
         for (k, t) in surface.iter().enumerate() {
@@ -341,7 +343,7 @@ impl<S: StrainEnergy> Skin<S> {
         if let Some(s) = &solid {
             s.lumped_masses_kg(spec.density_kg_m3, &mut mass_kg);
         }
-        let layers = solid.as_ref().map_or(0, |s| s.layers);
+        let layers = spec.layers;
         let mut fixed = vec![[false; 3]; n];
         for j in [0, mesh.along] {
             for a in layered_ring(&mesh, layers, j) {
@@ -416,18 +418,11 @@ impl<S: StrainEnergy> Skin<S> {
         Ok(0.5 * self.spec.thickness_m * self.strain(k)?.thickness_stretch())
     }
 
-    /// The triangles bounding the fluid, normals outwards: the
-    /// mid-surface, or a solid's inner surface.
+    /// The triangles bounding the fluid, normals outwards: the mesh's,
+    /// which are the mid-surface of a membrane and the inner surface
+    /// (layer 0) of a solid.
     fn fluid_triangles(&self) -> impl Iterator<Item = [usize; 3]> + '_ {
-        let solid = self.solid.as_ref().map(|s| s.inner.iter().copied());
-        let membrane = self
-            .solid
-            .is_none()
-            .then(|| self.elements.iter().map(|t| t.nodes));
-        solid
-            .into_iter()
-            .flatten()
-            .chain(membrane.into_iter().flatten())
+        self.mesh.triangles.iter().copied()
     }
 
     /// Membrane strain of surface element `k` at the current positions

@@ -255,9 +255,6 @@ pub struct Solid {
     pub bulk_modulus_pa: f64,
     /// The elements.
     pub hexes: Vec<Hex>,
-    /// Inner-surface triangles (the fluid's), normals pointing away from
-    /// the axis.
-    pub inner: Vec<[usize; 3]>,
 }
 
 impl Solid {
@@ -320,7 +317,6 @@ impl Solid {
                 per_layer,
                 bulk_modulus_pa,
                 hexes,
-                inner: mesh.triangles.clone(),
             },
             rest_m,
         ))
@@ -331,11 +327,12 @@ impl Solid {
         l * self.per_layer + a
     }
 
-    /// Outer-surface triangles (the sand's), normals pointing away from
-    /// the axis.
-    pub fn outer(&self) -> Vec<[usize; 3]> {
+    /// Outer-surface triangles (the sand's) of the wall on `mesh`, normals
+    /// pointing away from the axis. The inner surface's (the fluid's) are
+    /// the mesh's own: layer 0 numbers its nodes as the mesh does.
+    pub fn outer(&self, mesh: &TubeMesh) -> Vec<[usize; 3]> {
         let off = self.layers * self.per_layer;
-        self.inner.iter().map(|t| t.map(|a| a + off)).collect()
+        mesh.triangles.iter().map(|t| t.map(|a| a + off)).collect()
     }
 
     /// Node positions of hexahedron `k`.
