@@ -3,7 +3,7 @@
 //! calibrate -- DEPTH_MM RADIUS_MM ROLLING DEPOSITION [quick|full] [SEED] [ABOVE_MM]
 //! [WALL_MU] [SKIN_SCALE] [AHEAD_MM] [FACE_RADIUS_MM] [ADVANCE_MM] [EXPANSION_S]
 //! [GRAIN_MODULUS_PA] [DEPOSITION_MODULUS_PA] [SHELL] [BELOW_MM] [BOX_WIDTH_MM] [ROUND]
-//! [ADVANCE_S] [AROUND ALONG] [HOLD_S] [HEAD_HELD] [LAYERS] [END_ROW_MM]`
+//! [ADVANCE_S] [AROUND ALONG] [HOLD_S] [HEAD_HELD] [LAYERS] [END_ROW_MM] [MASS_SCALED]`
 //! (face radius 0: one grain size; shell 1: the skin as a shell,
 //! `ScenarioSpec::with_shell`, else the membrane; below: the floor under
 //! the axis; round 1: the zone's rings kept round; advance: its duration;
@@ -12,7 +12,8 @@
 //! the head held through the expansion too; layers n ≥ 1: the skin as a
 //! solid wall n hexahedra thick, `ScenarioSpec::with_solid`, with the
 //! around × along mesh when given; end row: the graded rows' length at the
-//! clamped ends, 0 for equal rows).
+//! clamped ends, 0 for equal rows; mass scaled 0: the solid wall keeps
+//! its own mass while the bed settles, `ScenarioSpec::skin_mass_scaling`).
 
 use anyhow::{Context, Result};
 use host_sim::simulate::{simulate, Options, ScenarioSpec};
@@ -63,6 +64,7 @@ fn main() -> Result<()> {
     spec.skin_end_row_m = (end_row > 0.0).then_some(end_row * 1e-3);
     spec.advance_hold_s = num(22, spec.advance_hold_s)?;
     spec.head_held = num(23, 0.0)? != 0.0;
+    spec.skin_mass_scaling = num(26, 1.0)? != 0.0;
     let above = num(6, 0.0)? * 1e-3;
     if above > 0.0 {
         spec = spec.with_surcharge(above, 2);
@@ -75,7 +77,7 @@ fn main() -> Result<()> {
     let m = rep.final_means().context("no samples")?;
     let st = &rep.settled;
     println!(
-        "h {:>3.0} n {} above {:.0} r {:.2} mu_r {:.2} wall {:.2} skin {:.1} ahead {:.0} dep {:.2} adv {:.2} s seed {} | settled p_e {:.3} p_h {:.3} surface {:.1} | start p_h {:.3} | final p_i {:.3} dp_i {:.3} p_e {:.3} p_h {:.3} drop {:5.1}% (>=22mm {:5.1}%) D_r {:.2} vm {:.4} E {:.0e} (settled at {:.0e}) {}{} bend {:.2} calipers {:.2}-{:.2} mm mesh {}x{} | {:.0} s",
+        "h {:>3.0} n {} above {:.0} r {:.2} mu_r {:.2} wall {:.2} skin {:.1} ahead {:.0} dep {:.2} adv {:.2} s seed {} | settled p_e {:.3} p_h {:.3} surface {:.1} | start p_h {:.3} | final p_i {:.3} dp_i {:.3} p_e {:.3} p_h {:.3} drop {:5.1}% (>=22mm {:5.1}%) D_r {:.2} vm {:.4} E {:.0e} (settled at {:.0e}) {}{} bend {:.2} calipers {:.2}-{:.2} mm mesh {}x{} | {:.0} s, skin steps/DEM step {:.2}, added mass {:.2}",
         h * 1e3, rep.grains.0 + rep.grains.1, rep.spec.above_m * 1e3, r * 1e3, rep.spec.rolling_friction, rep.spec.wall_friction, rep.spec.skin_stiffness_scale, rep.spec.ahead_m * 1e3, rep.spec.deposition_friction, rep.spec.advance_s, rep.spec.seed,
         st.sand_pressure_pa * 1e-3, st.face_pressure_pa * 1e-3, st.surface_m * 1e3,
         rep.initial_face_pressure_pa() * 1e-3,
@@ -83,7 +85,8 @@ fn main() -> Result<()> {
         100.0 * rep.face_pressure_drop().unwrap_or(f64::NAN),
         100.0 * rep.face_pressure_drop_beyond(rep.spec.face_drop_from_m()).unwrap_or(f64::NAN),
         m.head_receding_m * 1e3,
-        m.max_von_mises_pa * 1e-6, rep.spec.grain_modulus_pa, rep.spec.deposition_modulus_pa, if rep.spec.skin_layers > 0 { format!("solid x{}", rep.spec.skin_layers) } else if rep.spec.skin_bending { "shell".to_string() } else { "membrane".to_string() }, if rep.spec.round_zone { " (round)" } else { "" }, m.max_bending_strain.unwrap_or(f64::NAN), rep.last().map_or(f64::NAN, |s| s.calipers_m.0 * 1e3), rep.last().map_or(f64::NAN, |s| s.calipers_m.1 * 1e3), rep.spec.skin_mesh.0, rep.spec.skin_mesh.1, rep.wall_s
+        m.max_von_mises_pa * 1e-6, rep.spec.grain_modulus_pa, rep.spec.deposition_modulus_pa, if rep.spec.skin_layers > 0 { format!("solid x{}", rep.spec.skin_layers) } else if rep.spec.skin_bending { "shell".to_string() } else { "membrane".to_string() }, if rep.spec.round_zone { " (round)" } else { "" }, m.max_bending_strain.unwrap_or(f64::NAN), rep.last().map_or(f64::NAN, |s| s.calipers_m.0 * 1e3), rep.last().map_or(f64::NAN, |s| s.calipers_m.1 * 1e3), rep.spec.skin_mesh.0, rep.spec.skin_mesh.1, rep.wall_s,
+        rep.skin_steps_per_dem_step, rep.skin_added_mass
     );
     Ok(())
 }

@@ -102,6 +102,10 @@ enum Command {
         /// instead of the mid-surface membrane. Slower: see README-simulate.
         #[arg(long = "solid-skin", value_name = "LAYERS")]
         solid_skin: Option<usize>,
+        /// Keep the solid wall's own mass while the bed settles instead of
+        /// scaling it to the DEM step (slower; for checking the scaling).
+        #[arg(long = "skin-mass-unscaled")]
+        skin_mass_unscaled: bool,
         /// Finer grains (this radius, mm) in a block in front of the head,
         /// so more grains bear on its face; the time step follows them.
         #[arg(long = "face-grain-radius-mm")]
@@ -354,6 +358,7 @@ fn run(cli: Cli) -> Result<()> {
             advance_hold_ms,
             head_held,
             solid_skin,
+            skin_mass_unscaled,
             face_grain_radius_mm,
             grain_modulus_mpa,
             deposition_modulus_mpa,
@@ -402,6 +407,7 @@ fn run(cli: Cli) -> Result<()> {
                 anyhow::ensure!(layers >= 1, "--solid-skin: at least 1 layer");
                 spec = spec.with_solid(layers);
             }
+            spec.skin_mass_scaling = !skin_mass_unscaled;
             spec.grain_modulus_pa = grain_modulus_mpa * 1e6;
             spec.deposition_modulus_pa = deposition_modulus_mpa * 1e6;
             if let Some(t) = expansion_s {

@@ -88,6 +88,16 @@ pub struct Coupling<S: StrainEnergy> {
     pub model: ContactModel,
     /// The head's front face, if resolved.
     pub face: Option<FrontFace>,
+    /// Scale a solid wall's mass so that it takes one step per DEM step
+    /// ([`Skin::scale_mass_to_step_s`] to [`MASS_SCALING_MARGIN`] × `dt_s`,
+    /// re-applied with each stable-step estimate). Off by default.
+    pub mass_scaling: bool,
+    /// The largest mass added by `mass_scaling` so far, as a fraction of
+    /// the wall's own (0 without it).
+    pub max_added_mass: f64,
+    /// Skin steps taken so far (several per DEM step where the skin's
+    /// stable step is the shorter).
+    pub skin_steps: u64,
     /// DEM time step (s): the contacts' tangential histories advance by it.
     pub dt_s: f64,
     history: Vec<History>,
@@ -105,6 +115,12 @@ pub struct Coupling<S: StrainEnergy> {
 
 /// Skin advances between re-estimates of its stable step.
 const STABLE_STEP_REFRESH: u64 = 32;
+
+/// The elements' target step under mass scaling, over the DEM step: the
+/// margin leaves room for the fluid's stiffness (which shortens the whole
+/// skin's step below its elements') and for the wall's thinning between
+/// two estimates.
+pub const MASS_SCALING_MARGIN: f64 = 1.25;
 
 impl<S: StrainEnergy> Coupling<S> {
     /// Couples `skin` to particles through `model`, stepping with the DEM's
@@ -129,7 +145,35 @@ impl<S: StrainEnergy> Coupling<S> {
             synced: false,
             skin_dt_s: 0.0,
             advances: 0,
+            mass_scaling: false,
+            max_added_mass: 0.0,
+            skin_steps: 0,
         })
+    }
+
+    /// Changes the DEM step to `dt_s` (s); under `mass_scaling` the skin's
+    /// mass and stable step are re-estimated at the next advance.
+    pub fn set_dt_s(&mut self, dt_s: f64) {
+        self.dt_s = dt_s;
+        if self.mass_scaling {
+            self.advances = 0;
+        }
+    }
+
+    /// Turns `mass_scaling` on or off; off gives the wall its own mass
+    /// back. The skin's stable step is re-estimated at the next advance.
+    pub fn set_mass_scaling(&mut self, on: bool) -> Result<(), FemError> {
+        if on == self.mass_scaling {
+            return Ok(());
+        }
+        if !on {
+            // No element's own step is shorter than the smallest positive
+            // number: every element gets its own mass.
+            self.skin.scale_mass_to_step_s(f64::MIN_POSITIVE)?;
+        }
+        self.mass_scaling = on;
+        self.advances = 0;
+        Ok(())
     }
 
     /// Totals of the last contact evaluation.
@@ -241,6 +285,12 @@ impl<S: StrainEnergy> Coupling<S> {
         let lag = time_s - self.skin.time_s;
         if lag > 1e-9 * self.dt_s {
             if self.advances.is_multiple_of(STABLE_STEP_REFRESH) {
+                if self.mass_scaling {
+                    let m = self
+                        .skin
+                        .scale_mass_to_step_s(MASS_SCALING_MARGIN * self.dt_s)?;
+                    self.max_added_mass = self.max_added_mass.max(m.added_fraction);
+                }
                 self.skin_dt_s = self.skin.stable_time_step_s()?;
             }
             self.advances += 1;
@@ -252,6 +302,7 @@ impl<S: StrainEnergy> Coupling<S> {
             for _ in 0..substeps as u64 {
                 self.skin.step(lag / substeps)?;
             }
+            self.skin_steps += substeps as u64;
             self.skin.time_s = time_s;
             // The face rides on the head.
             if let (Some(head), Some(face)) = (&self.skin.head, &mut self.face) {

@@ -49,6 +49,13 @@ pub struct Report {
     pub free: FreeCurve,
     /// Wall time of the whole run (s).
     pub wall_s: f64,
+    /// Skin steps per DEM step over the whole run (≥ 1; more where the
+    /// skin's stable step is the shorter).
+    pub skin_steps_per_dem_step: f64,
+    /// The most mass the skin's mass scaling added while the bed settled,
+    /// as a fraction of the wall's own; 0: none
+    /// ([`ScenarioSpec::skin_mass_scaling`]).
+    pub skin_added_mass: f64,
 }
 
 impl Report {
@@ -252,7 +259,18 @@ impl Report {
                 "paper (4 cm): p_e 3.86 ± 1.24 kPa (experiment), p_i 4.06 kPa, p_h drop 97.7 %, max von Mises 0.042 MPa"
             );
         }
-        let _ = writeln!(s, "wall time {:.1} s", self.wall_s);
+        let _ = writeln!(
+            s,
+            "wall time {:.1} s; skin steps per DEM step {:.2}",
+            self.wall_s, self.skin_steps_per_dem_step
+        );
+        if self.skin_added_mass > 0.0 {
+            let _ = writeln!(
+                s,
+                "skin mass scaled to the DEM step while the bed settled: at most +{:.0} % of the wall's mass (its own mass after)",
+                100.0 * self.skin_added_mass
+            );
+        }
         s
     }
 }
@@ -329,6 +347,9 @@ pub fn simulate_with(opts: &Options, free: FreeCurve, t0: Instant) -> Result<Rep
         samples,
         free,
         wall_s: t0.elapsed().as_secs_f64(),
+        skin_steps_per_dem_step: bed.coupling.skin_steps as f64
+            / bed.state.step_count.max(1) as f64,
+        skin_added_mass: bed.coupling.max_added_mass,
     };
     if let Some(dir) = &opts.out {
         output::write_text(dir, "samples.csv", &output::samples_csv(&report)?)?;

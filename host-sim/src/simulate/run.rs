@@ -50,7 +50,9 @@ fn support_n(bed: &Bed) -> f64 {
 
 /// Lets the grains settle for `spec.settle_s` round the zone holding its
 /// resting fluid volume, at the deposition modulus, then stiffens them to
-/// the sand's ([`stiffen`]) when that differs.
+/// the sand's ([`stiffen`]) when that differs. A solid skin's mass is
+/// scaled to the DEM step meanwhile ([`ScenarioSpec::skin_mass_scaling`])
+/// and given back at the end.
 pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
     let steps = (bed.spec.settle_s / bed.params.dt_s).ceil() as u64;
     bar.set_length(steps);
@@ -92,6 +94,9 @@ pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
     if bed.spec.grain_modulus_pa != bed.spec.deposition_modulus_pa {
         stiffen(bed, bar)?;
     }
+    // The advance and the expansion, where the skin is measured, run at
+    // the wall's own mass.
+    bed.coupling.set_mass_scaling(false)?;
     let p = &bed.state.particles;
     let slab_top_m = (0..bed.slab_grains)
         .map(|i| p.position_m[i].y + p.radius_m[i])

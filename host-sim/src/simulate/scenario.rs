@@ -145,6 +145,12 @@ pub struct ScenarioSpec {
     /// membrane or shell, n ≥ 1 for a solid wall ([`crate::fem::solid`],
     /// see [`ScenarioSpec::with_solid`]).
     pub skin_layers: usize,
+    /// Scale a solid wall's mass so that it takes one step per DEM step
+    /// while the bed settles ([`crate::coupling::Coupling::mass_scaling`]),
+    /// where nothing is measured and the long settling step would take it
+    /// three; the advance and the expansion run at its own mass. Default
+    /// true; no effect on a membrane or shell, whose steps are longer.
+    pub skin_mass_scaling: bool,
     /// Keep the zone round ([`crate::fem::Skin::round_rings`]): the sand's
     /// answer to a round expansion, whatever shape the skin would take
     /// (off by default; for studies, README-simulate).
@@ -230,6 +236,7 @@ impl ScenarioSpec {
             skin_end_row_m: None,
             skin_bending: false,
             skin_layers: 0,
+            skin_mass_scaling: true,
             round_zone: false,
             frames: 10,
             samples: 200,
@@ -809,7 +816,7 @@ impl Bed {
             w.model = laws.grains(s)?;
         }
         self.coupling.model = laws.skin(&self.spec.skin_law())?;
-        self.coupling.dt_s = laws.dt_s;
+        self.coupling.set_dt_s(laws.dt_s);
         if let Some(face) = &mut self.coupling.face {
             face.model = laws.grains(&laws.rough)?;
             face.dt_s = laws.dt_s;
@@ -857,6 +864,7 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     });
     let zone_m = skin.spec.length_m;
     let mut coupling = Coupling::new(skin, laws.skin(&spec.skin_law())?, dt)?;
+    coupling.set_mass_scaling(spec.skin_mass_scaling && spec.skin_layers > 0)?;
     // The face spans the clamped end ring's outer radius.
     let face_radius = coupling.skin.spec.mid_radius_m + 0.5 * coupling.skin.spec.thickness_m;
     let face_model = laws.grains(&laws.rough)?;
