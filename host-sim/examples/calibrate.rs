@@ -11,7 +11,8 @@
 //! after the advance, the head held, before the expansion; head held 1:
 //! the head held through the expansion too; layers n ≥ 1: the skin as a
 //! solid wall n hexahedra thick, `ScenarioSpec::with_solid`, with the
-//! around × along mesh when given; end row: the graded rows' length at the
+//! around × along mesh when given, 0 (default here, unlike `simulate`):
+//! the membrane, `ScenarioSpec::with_membrane`; end row: the graded rows' length at the
 //! clamped ends, 0 for equal rows; mass scaled 0: the solid wall keeps
 //! its own mass while the bed settles, `ScenarioSpec::skin_mass_scaling`).
 
@@ -44,18 +45,22 @@ fn main() -> Result<()> {
     spec.expansion_s = num(12, spec.expansion_s)?;
     spec.grain_modulus_pa = num(13, spec.grain_modulus_pa)?;
     spec.deposition_modulus_pa = num(14, spec.deposition_modulus_pa)?;
-    if num(15, 0.0)? != 0.0 {
-        spec = spec.with_shell();
-    }
     spec.below_m = num(16, spec.below_m * 1e3)? * 1e-3;
     spec.box_width_m = num(17, spec.box_width_m * 1e3)? * 1e-3;
     spec.settle_s = ScenarioSpec::column_settle_s(spec.below_m + spec.above_m);
     spec.round_zone = num(18, 0.0)? != 0.0;
     spec.advance_s = num(19, spec.advance_s)?;
+    // LAYERS 0 (the default here): the membrane, as in the sweeps before
+    // the solid wall became the scenario's skin, so their commands still
+    // reproduce them.
     let layers = num(24, 0.0)? as usize;
-    if layers > 0 {
-        spec = spec.with_solid(layers);
-    }
+    spec = if layers > 0 {
+        spec.with_solid(layers)
+    } else if num(15, 0.0)? != 0.0 {
+        spec.with_shell()
+    } else {
+        spec.with_membrane()
+    };
     spec.skin_mesh = (
         num(20, spec.skin_mesh.0 as f64)? as usize,
         num(21, spec.skin_mesh.1 as f64)? as usize,

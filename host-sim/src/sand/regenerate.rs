@@ -302,6 +302,9 @@ pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
         );
         let _ = writeln!(s, "# final_diameter_mm = {}", probe.final_diameter_m * 1e3);
     }
+    // The skin the runs used: hexahedra through its wall, 0 for the
+    // mid-surface membrane.
+    let _ = writeln!(s, "# skin_layers = {}", probe.skin_layers);
     let _ = writeln!(s, "# run = {}", if quick { "quick" } else { "full" });
     let seeds: Vec<String> = opts
         .seed_list(&probe)

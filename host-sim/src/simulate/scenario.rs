@@ -78,6 +78,11 @@ pub const PAPER_FINAL_DIAMETER_M: f64 = 25e-3;
 /// curvature within ≈ 5 % of a uniform 0.125 mm mesh (free inflation to
 /// 25 mm) at a stable step still about the DEM's.
 pub const SKIN_END_ROW_M: f64 = 0.35e-3;
+/// Hexahedra through the wall of the scenario's skin ([`ScenarioSpec::paper`]):
+/// a third layer moved the peak stress by 3 % (README-simulate).
+pub const SOLID_LAYERS: usize = 2;
+/// The membrane's mesh ([`ScenarioSpec::with_membrane`]): 24 round, 6 along.
+pub const MEMBRANE_MESH: (usize, usize) = (24, 6);
 /// The shell's mesh ([`ScenarioSpec::with_shell`]): 24 nodes round, rows
 /// growing from [`SKIN_END_ROW_M`] to a 13th of the zone (20 rows for the
 /// paper's 20 mm).
@@ -217,7 +222,10 @@ pub struct ScenarioSpec {
 
 impl ScenarioSpec {
     /// The full case at depth `depth_m` (m) with grains of radius
-    /// `grain_radius_m` (m).
+    /// `grain_radius_m` (m), the skin a solid wall [`SOLID_LAYERS`]
+    /// hexahedra thick ([`ScenarioSpec::with_solid`]; the paper's element
+    /// family and its peak stress; [`ScenarioSpec::with_membrane`] for the
+    /// six times cheaper mid-surface membrane of the earlier results).
     pub fn paper(depth_m: f64, grain_radius_m: f64) -> ScenarioSpec {
         let below_m = 20e-3;
         ScenarioSpec {
@@ -232,7 +240,7 @@ impl ScenarioSpec {
             settle_s: Self::column_settle_s(below_m + depth_m),
             expansion_s: 0.3,
             final_diameter_m: PAPER_FINAL_DIAMETER_M,
-            skin_mesh: (24, 6),
+            skin_mesh: MEMBRANE_MESH,
             skin_end_row_m: None,
             skin_bending: false,
             skin_layers: 0,
@@ -259,6 +267,7 @@ impl ScenarioSpec {
             grain_modulus_pa: GRAIN_MODULUS_PA,
             deposition_modulus_pa: DEPOSITION_MODULUS_PA,
         }
+        .with_solid(SOLID_LAYERS)
     }
 
     /// This case with the set-up of `rig` (read from `rig_file`, named in
@@ -430,8 +439,23 @@ impl ScenarioSpec {
     pub fn with_shell(self) -> ScenarioSpec {
         ScenarioSpec {
             skin_bending: true,
+            skin_layers: 0,
             skin_end_row_m: Some(SKIN_END_ROW_M),
             skin_mesh: SHELL_MESH,
+            ..self
+        }
+    }
+
+    /// This case with the skin as the mid-surface membrane on the uniform
+    /// [`MEMBRANE_MESH`]: no bending, about a sixth of the solid wall's
+    /// cost; the scenario's skin up to session 11, and the one its
+    /// membrane results in README-simulate were run with.
+    pub fn with_membrane(self) -> ScenarioSpec {
+        ScenarioSpec {
+            skin_bending: false,
+            skin_layers: 0,
+            skin_end_row_m: None,
+            skin_mesh: MEMBRANE_MESH,
             ..self
         }
     }
