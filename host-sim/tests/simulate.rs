@@ -294,6 +294,33 @@ fn a_rig_sets_the_actuator_the_sand_the_fluid_and_the_box() {
 }
 
 #[test]
+fn a_thick_walled_rig_keeps_the_solid_wall_and_a_thin_walled_one_gets_the_membrane() {
+    // The paper's wall is 0.19 of its outer radius: the solid wall.
+    let (spec, notes) = ScenarioSpec::paper(40e-3, 1.5e-3)
+        .with_rig(&paper_rig_without_skin(), "rig.toml", None)
+        .unwrap();
+    assert_eq!(spec.skin_layers, 2);
+    assert!(!notes.iter().any(|n| n.contains("the skin is the membrane")));
+    // A balloon-like 0.4 mm wall on 18.7 mm: 0.043, a membrane, said so.
+    let mut rig = paper_rig_without_skin();
+    rig.actuator.skin_thickness_mm = 0.4;
+    let (spec, notes) = ScenarioSpec::paper(40e-3, 1.5e-3)
+        .with_rig(&rig, "thin/rig.toml", None)
+        .unwrap();
+    assert_eq!(
+        (spec.skin_layers, spec.skin_mesh, spec.skin_end_row_m),
+        (0, host_sim::simulate::scenario::MEMBRANE_MESH, None)
+    );
+    assert!(
+        notes.iter().any(
+            |n| n.starts_with("thin/rig.toml: [actuator] skin_thickness_mm = 0.4")
+                && n.contains("the skin is the membrane")
+        ),
+        "{notes:?}"
+    );
+}
+
+#[test]
 fn a_rig_that_cannot_be_simulated_is_refused_naming_the_file_and_key() {
     let base = ScenarioSpec::paper(40e-3, 1.5e-3);
     let msg = |rig: &Rig, final_m: Option<f64>| {
@@ -341,7 +368,8 @@ fn a_tiny_bed_of_another_rig_carries_its_own_buoyant_weight() {
         expansion_s: 0.08,
         frames: 1,
         samples: 10,
-        ..ScenarioSpec::quick(45e-3, r)
+        // The membrane, as the other tiny beds: the bed's weight is the point.
+        ..ScenarioSpec::quick(45e-3, r).with_membrane()
     };
     let (spec, _) = base.with_rig(&rig, "rig.toml", None).unwrap();
     let spec = spec.with_surcharge(25e-3, 2);

@@ -78,6 +78,12 @@ pub const PAPER_FINAL_DIAMETER_M: f64 = 25e-3;
 /// curvature within ≈ 5 % of a uniform 0.125 mm mesh (free inflation to
 /// 25 mm) at a stable step still about the DEM's.
 pub const SKIN_END_ROW_M: f64 = 0.35e-3;
+/// Wall thickness over outer radius below which a rig's skin is the
+/// membrane ([`ScenarioSpec::with_rig`]): mid-surface theory is then within
+/// about T/2R of the solid's, and hexahedra a tenth of the radius thin
+/// would cut the skin's step well under the DEM's. The paper's wall is
+/// 0.19.
+pub const THIN_WALL_RATIO: f64 = 0.1;
 /// Hexahedra through the wall of the scenario's skin ([`ScenarioSpec::paper`]):
 /// a third layer moved the peak stress by 3 % (README-simulate).
 pub const SOLID_LAYERS: usize = 2;
@@ -360,6 +366,16 @@ impl ScenarioSpec {
             friction: sand.friction,
             setup: format!("rig {rig_file}"),
             ..self
+        };
+        let thin = tube.wall_thickness_mm / (0.5 * tube.outer_diameter_mm);
+        let spec = if spec.skin_layers > 0 && thin < THIN_WALL_RATIO {
+            notes.push(format!(
+                "{rig_file}: [actuator] skin_thickness_mm = {} mm is {:.3} of the outer radius, under {THIN_WALL_RATIO}: the skin is the membrane (a thin wall; --solid-skin LAYERS for the solid)",
+                a.skin_thickness_mm, thin
+            ));
+            spec.with_membrane()
+        } else {
+            spec
         };
         spec.validate()
             .with_context(|| format!("{rig_file}: the set-up cannot be simulated"))?;
