@@ -167,9 +167,7 @@ impl<S: StrainEnergy> Coupling<S> {
             return Ok(());
         }
         if !on {
-            // No element's own step is shorter than the smallest positive
-            // number: every element gets its own mass.
-            self.skin.scale_mass_to_step_s(f64::MIN_POSITIVE)?;
+            self.skin.unscale_mass();
         }
         self.mass_scaling = on;
         self.advances = 0;

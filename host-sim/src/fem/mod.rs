@@ -615,8 +615,10 @@ impl<S: StrainEnergy> Skin<S> {
             &self.position_m,
             target_s,
         )?;
-        self.mass_kg.iter_mut().for_each(|m| *m = 0.0);
-        s.lumped_masses_kg(self.spec.density_kg_m3, &mut self.mass_kg);
+        self.lump_solid_masses();
+        let Some(s) = &self.solid else {
+            return Ok(MassScaling::default());
+        };
         let (mut own, mut now) = (0.0, 0.0);
         for (hex, scale) in s.hexes.iter().zip(&s.mass_scale) {
             own += hex.volume_m3;
@@ -626,6 +628,23 @@ impl<S: StrainEnergy> Skin<S> {
             elements,
             added_fraction: now / own - 1.0,
         })
+    }
+
+    /// Gives a solid wall's elements their own masses back (undoes
+    /// [`Skin::scale_mass_to_step_s`]; nothing for a membrane).
+    pub fn unscale_mass(&mut self) {
+        if let Some(s) = &mut self.solid {
+            s.mass_scale.iter_mut().for_each(|k| *k = 1.0);
+        }
+        self.lump_solid_masses();
+    }
+
+    /// A solid wall's nodal masses from its elements' scaled masses.
+    fn lump_solid_masses(&mut self) {
+        if let Some(s) = &self.solid {
+            self.mass_kg.iter_mut().for_each(|m| *m = 0.0);
+            s.lumped_masses_kg(self.spec.density_kg_m3, &mut self.mass_kg);
+        }
     }
 
     /// Sets the pressure from the enclosed volume when volume-controlled.
@@ -743,26 +762,21 @@ impl<S: StrainEnergy> Skin<S> {
     /// longest element's step for the relaxation (mass scaling, so its thin
     /// end rows do not set the pace), and their own masses back after.
     pub fn relax(&mut self, tolerance_n: f64, max_steps: usize) -> Result<Relaxed, FemError> {
-        let Some(own) = self.solid.as_ref().map(|s| s.mass_scale.clone()) else {
+        let Some(s) = &self.solid else {
             return self.relax_with_own_masses(tolerance_n, max_steps);
         };
-        let longest = self.solid.as_ref().map_or(Ok(0.0), |s| {
-            (0..s.hexes.len()).try_fold(0.0f64, |m, k| {
-                Ok(m.max(s.element_step_s(
-                    &self.law,
-                    self.spec.density_kg_m3,
-                    &self.position_m,
-                    k,
-                )?))
-            })
-        })?;
+        let own = s.mass_scale.clone();
+        let mut longest = 0.0f64;
+        for k in 0..s.hexes.len() {
+            let step = s.element_step_s(&self.law, self.spec.density_kg_m3, &self.position_m, k)?;
+            longest = longest.max(step);
+        }
         self.scale_mass_to_step_s(longest)?;
         let relaxed = self.relax_with_own_masses(tolerance_n, max_steps);
         if let Some(s) = &mut self.solid {
             s.mass_scale = own;
-            self.mass_kg.iter_mut().for_each(|m| *m = 0.0);
-            s.lumped_masses_kg(self.spec.density_kg_m3, &mut self.mass_kg);
         }
+        self.lump_solid_masses();
         relaxed
     }
 
