@@ -107,7 +107,7 @@ enum Command {
         )]
         solid_skin: Option<usize>,
         /// The skin as the mid-surface membrane instead of the solid wall:
-        /// about a sixth of the cost, no bending, a third less peak stress
+        /// about 40 % of the cost, no bending, a third less peak stress
         /// (README-simulate).
         #[arg(long = "membrane-skin")]
         membrane_skin: bool,

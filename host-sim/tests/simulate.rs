@@ -10,7 +10,7 @@ use host_sim::simulate::{simulate, FreeCurve, Options, ScenarioSpec};
 /// A tiny, coarse case at 40 mm (grains of `radius_m`, sand to 20 mm over
 /// the axis under a surcharge), settling `settle_s` and expanding over
 /// `expansion_s` in `frames` frames, round the membrane skin: the solid
-/// wall (the scenario's skin) costs six times as much and has its own
+/// wall (the scenario's skin) costs 2.5× as much and has its own
 /// test below.
 fn tiny(radius_m: f64, settle_s: f64, expansion_s: f64, frames: usize) -> ScenarioSpec {
     ScenarioSpec {

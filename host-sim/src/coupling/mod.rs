@@ -284,10 +284,10 @@ impl<S: StrainEnergy> Coupling<S> {
         if lag > 1e-9 * self.dt_s {
             if self.advances.is_multiple_of(STABLE_STEP_REFRESH) {
                 if self.mass_scaling {
-                    let m = self
+                    let added = self
                         .skin
                         .scale_mass_to_step_s(MASS_SCALING_MARGIN * self.dt_s)?;
-                    self.max_added_mass = self.max_added_mass.max(m.added_fraction);
+                    self.max_added_mass = self.max_added_mass.max(added);
                 }
                 self.skin_dt_s = self.skin.stable_time_step_s()?;
             }

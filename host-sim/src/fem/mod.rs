@@ -295,15 +295,6 @@ pub struct Skin<S: StrainEnergy> {
     pub round_rings: bool,
 }
 
-/// What [`Skin::scale_mass_to_step_s`] did.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct MassScaling {
-    /// Elements given more than their own mass.
-    pub elements: usize,
-    /// Mass added, as a fraction of the wall's own.
-    pub added_fraction: f64,
-}
-
 impl<S: StrainEnergy> Skin<S> {
     /// A skin of law `law`, geometry `spec`, held by `ends`, at rest.
     pub fn new(law: S, spec: &SkinSpec, ends: Ends) -> Result<Skin<S>, FemError> {
@@ -602,32 +593,23 @@ impl<S: StrainEnergy> Skin<S> {
     /// shorter than `target_s` (s) (see [`Solid::scale_mass_to_step_s`];
     /// a solid wall only: a membrane's elements are far longer-lived than
     /// any DEM step, and are left as they are). Velocities are kept.
-    pub fn scale_mass_to_step_s(&mut self, target_s: f64) -> Result<MassScaling, FemError> {
+    /// Returns the mass added, as a fraction of the wall's own (0 for a
+    /// membrane).
+    pub fn scale_mass_to_step_s(&mut self, target_s: f64) -> Result<f64, FemError> {
         if !(target_s > 0.0 && target_s.is_finite()) {
             return Err(FemError::param("target_s", target_s));
         }
         let Some(s) = &mut self.solid else {
-            return Ok(MassScaling::default());
+            return Ok(0.0);
         };
-        let elements = s.scale_mass_to_step_s(
+        let added = s.scale_mass_to_step_s(
             &self.law,
             self.spec.density_kg_m3,
             &self.position_m,
             target_s,
         )?;
         self.lump_solid_masses();
-        let Some(s) = &self.solid else {
-            return Ok(MassScaling::default());
-        };
-        let (mut own, mut now) = (0.0, 0.0);
-        for (hex, scale) in s.hexes.iter().zip(&s.mass_scale) {
-            own += hex.volume_m3;
-            now += scale * hex.volume_m3;
-        }
-        Ok(MassScaling {
-            elements,
-            added_fraction: now / own - 1.0,
-        })
+        Ok(added)
     }
 
     /// Gives a solid wall's elements their own masses back (undoes
