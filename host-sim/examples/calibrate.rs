@@ -3,7 +3,8 @@
 //! calibrate -- DEPTH_MM RADIUS_MM ROLLING DEPOSITION [quick|full] [SEED] [ABOVE_MM]
 //! [WALL_MU] [SKIN_SCALE] [AHEAD_MM] [FACE_RADIUS_MM] [ADVANCE_MM] [EXPANSION_S]
 //! [GRAIN_MODULUS_PA] [DEPOSITION_MODULUS_PA] [SHELL] [BELOW_MM] [BOX_WIDTH_MM] [ROUND]
-//! [ADVANCE_S] [AROUND ALONG] [HOLD_S] [HEAD_HELD] [LAYERS] [END_ROW_MM] [MASS_SCALED]`
+//! [ADVANCE_S] [AROUND ALONG] [HOLD_S] [HEAD_HELD] [LAYERS] [END_ROW_MM] [MASS_SCALED]
+//! [SKIN_MU]`
 //! (face radius 0: one grain size; shell 1: the skin as a shell,
 //! `ScenarioSpec::with_shell`, else the membrane; below: the floor under
 //! the axis; round 1: the zone's rings kept round; advance: its duration;
@@ -14,12 +15,19 @@
 //! around × along mesh when given, 0 (default here, unlike `simulate`):
 //! the membrane, `ScenarioSpec::with_membrane`; end row: the graded rows' length at the
 //! clamped ends, 0 for equal rows; mass scaled 0: the solid wall keeps
-//! its own mass while the bed settles, `ScenarioSpec::skin_mass_scaling`).
+//! its own mass while the bed settles, `ScenarioSpec::skin_mass_scaling`;
+//! skin mu: the grains' friction on the skin, `ScenarioSpec::skin_friction`).
 
 use anyhow::{Context, Result};
 use host_sim::simulate::{simulate, Options, ScenarioSpec};
 
 fn main() -> Result<()> {
+    // On a worker of rayon's pool, as `host-sim` runs (its main.rs: the
+    // parallel loops are not handed across threads).
+    rayon::scope(|_| run())
+}
+
+fn run() -> Result<()> {
     let a: Vec<String> = std::env::args().skip(1).collect();
     let num = |i: usize, d: f64| -> Result<f64> {
         a.get(i).map_or(Ok(d), |s| {
@@ -37,6 +45,7 @@ fn main() -> Result<()> {
     spec.deposition_friction = num(3, spec.deposition_friction)?;
     spec.seed = num(5, 1.0)? as u64;
     spec.wall_friction = num(7, spec.wall_friction)?;
+    spec.skin_friction = num(27, spec.skin_friction)?;
     spec.skin_stiffness_scale = num(8, spec.skin_stiffness_scale)?;
     spec.ahead_m = num(9, spec.ahead_m * 1e3)? * 1e-3;
     let face_r = num(10, 0.0)? * 1e-3;
@@ -82,8 +91,8 @@ fn main() -> Result<()> {
     let m = rep.final_means().context("no samples")?;
     let st = &rep.settled;
     println!(
-        "h {:>3.0} n {} above {:.0} r {:.2} mu_r {:.2} wall {:.2} skin {:.1} ahead {:.0} dep {:.2} adv {:.2} s seed {} | settled p_e {:.3} p_h {:.3} surface {:.1} | start p_h {:.3} | final p_i {:.3} dp_i {:.3} p_e {:.3} p_h {:.3} drop {:5.1}% (>=22mm {:5.1}%) D_r {:.2} vm {:.4} E {:.0e} (settled at {:.0e}) {}{} bend {:.2} calipers {:.2}-{:.2} mm mesh {}x{} | {:.0} s, skin steps/DEM step {:.2}, added mass {:.2}",
-        h * 1e3, rep.grains.0 + rep.grains.1, rep.spec.above_m * 1e3, r * 1e3, rep.spec.rolling_friction, rep.spec.wall_friction, rep.spec.skin_stiffness_scale, rep.spec.ahead_m * 1e3, rep.spec.deposition_friction, rep.spec.advance_s, rep.spec.seed,
+        "h {:>3.0} n {} above {:.0} r {:.2} mu_r {:.2} wall {:.2} skin_mu {:.2} skin {:.1} ahead {:.0} dep {:.2} adv {:.2} s seed {} | settled p_e {:.3} p_h {:.3} surface {:.1} | start p_h {:.3} | final p_i {:.3} dp_i {:.3} p_e {:.3} p_h {:.3} drop {:5.1}% (>=22mm {:5.1}%) D_r {:.2} vm {:.4} E {:.0e} (settled at {:.0e}) {}{} bend {:.2} calipers {:.2}-{:.2} mm mesh {}x{} | {:.0} s, skin steps/DEM step {:.2}, added mass {:.2}",
+        h * 1e3, rep.grains.0 + rep.grains.1, rep.spec.above_m * 1e3, r * 1e3, rep.spec.rolling_friction, rep.spec.wall_friction, rep.spec.skin_friction, rep.spec.skin_stiffness_scale, rep.spec.ahead_m * 1e3, rep.spec.deposition_friction, rep.spec.advance_s, rep.spec.seed,
         st.sand_pressure_pa * 1e-3, st.face_pressure_pa * 1e-3, st.surface_m * 1e3,
         rep.initial_face_pressure_pa() * 1e-3,
         m.internal_pressure_pa * 1e-3, m.sand_share_pa * 1e-3, m.sand_pressure_pa * 1e-3, m.face_pressure_pa * 1e-3,

@@ -22,8 +22,6 @@ pub mod expansion;
 pub mod face;
 pub mod geometry;
 
-use std::collections::HashMap;
-
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
@@ -414,11 +412,18 @@ fn in_box(p: &Vector3<f64>, lo: &Vector3<f64>, hi: &Vector3<f64>) -> bool {
 
 /// Triangles binned on a uniform grid by their bounding boxes grown by the
 /// contact reach, so a particle only tests the triangles of its own cell.
+/// The cells are a dense block over the triangles' bounds, their lists
+/// packed in one array (counting sort, triangles ascending in each cell):
+/// the grid is rebuilt every step, and hashing cell keys was a hot spot.
 struct TriangleGrid {
     /// Box holding every triangle's grown box (m).
     bounds: (Vector3<f64>, Vector3<f64>),
     cell_m: f64,
-    cells: HashMap<[i64; 3], Vec<usize>>,
+    /// Cells along x, y, z.
+    dims: [usize; 3],
+    /// Cell c's triangles are `triangles[start[c]..start[c + 1]]`.
+    start: Vec<usize>,
+    triangles: Vec<usize>,
     /// Each triangle's bounding box grown by the reach (m).
     boxes: Vec<(Vector3<f64>, Vector3<f64>)>,
 }
@@ -440,17 +445,6 @@ impl TriangleGrid {
             .map(|(lo, hi)| (hi - lo).max())
             .fold(0.0, f64::max)
             .max(1e-9);
-        let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-        for (k, (lo, hi)) in boxes.iter().enumerate() {
-            let (a, b) = (Self::key(cell_m, lo), Self::key(cell_m, hi));
-            for i in a[0]..=b[0] {
-                for j in a[1]..=b[1] {
-                    for l in a[2]..=b[2] {
-                        cells.entry([i, j, l]).or_default().push(k);
-                    }
-                }
-            }
-        }
         let bounds = boxes.iter().fold(
             (
                 Vector3::repeat(f64::INFINITY),
@@ -458,12 +452,70 @@ impl TriangleGrid {
             ),
             |(lo, hi), (a, b)| (lo.inf(a), hi.sup(b)),
         );
-        TriangleGrid {
+        // Every box is at most a cell wide, so it spans at most two cells
+        // per axis: the block is the bounds over the cell size, plus one.
+        let dims = if boxes.is_empty() {
+            [0; 3]
+        } else {
+            [0, 1, 2].map(|a| ((bounds.1[a] - bounds.0[a]) / cell_m).floor() as usize + 1)
+        };
+        let mut grid = TriangleGrid {
             bounds,
             cell_m,
-            cells,
+            dims,
+            start: vec![0; dims.iter().product::<usize>() + 1],
+            triangles: Vec::new(),
             boxes,
+        };
+        // Count, then place: cell c's count lands in start[c + 1], the
+        // running sum turns counts into offsets, and placing advances
+        // start[c] to where cell c + 1 begins; a shift puts them back.
+        for k in 0..grid.boxes.len() {
+            grid.for_cells_of(k, |c, start| start[c + 1] += 1);
         }
+        for c in 1..grid.start.len() {
+            grid.start[c] += grid.start[c - 1];
+        }
+        grid.triangles = vec![0; grid.start[grid.start.len() - 1]];
+        let mut next = grid.start.clone();
+        for k in 0..grid.boxes.len() {
+            let mut cells = [0usize; 8];
+            let mut count = 0;
+            grid.for_cells_of(k, |c, _| {
+                cells[count] = c;
+                count += 1;
+            });
+            for &c in &cells[..count] {
+                grid.triangles[next[c]] = k;
+                next[c] += 1;
+            }
+        }
+        grid
+    }
+
+    /// Calls `f(cell, start)` for each cell triangle `k`'s box overlaps.
+    fn for_cells_of(&mut self, k: usize, mut f: impl FnMut(usize, &mut Vec<usize>)) {
+        let (lo, hi) = self.boxes[k];
+        let (a, b) = (self.cell_of(&lo), self.cell_of(&hi));
+        for i in a[0]..=b[0] {
+            for j in a[1]..=b[1] {
+                for l in a[2]..=b[2] {
+                    f(self.index(i, j, l), &mut self.start);
+                }
+            }
+        }
+    }
+
+    /// The cell (per axis) of a point inside the bounds.
+    fn cell_of(&self, x: &Vector3<f64>) -> [usize; 3] {
+        [0, 1, 2].map(|a| {
+            let c = ((x[a] - self.bounds.0[a]) / self.cell_m).floor();
+            (c.max(0.0) as usize).min(self.dims[a].saturating_sub(1))
+        })
+    }
+
+    fn index(&self, i: usize, j: usize, l: usize) -> usize {
+        (l * self.dims[1] + j) * self.dims[0] + i
     }
 
     /// Whether `p` lies in triangle `k`'s grown box (every point within the
@@ -474,13 +526,14 @@ impl TriangleGrid {
         in_box(p, lo, hi)
     }
 
-    fn key(cell_m: f64, x: &Vector3<f64>) -> [i64; 3] {
-        [0, 1, 2].map(|k| (x[k] / cell_m).floor() as i64)
-    }
-
+    /// The triangles whose grown boxes may hold `p` (a point inside the
+    /// bounds; [`Coupling::exchange`] filters on them first).
     fn candidates(&self, p: &Vector3<f64>) -> &[usize] {
-        self.cells
-            .get(&Self::key(self.cell_m, p))
-            .map_or(&[], |v| v.as_slice())
+        if self.triangles.is_empty() {
+            return &[];
+        }
+        let [i, j, l] = self.cell_of(p);
+        let c = self.index(i, j, l);
+        &self.triangles[self.start[c]..self.start[c + 1]]
     }
 }

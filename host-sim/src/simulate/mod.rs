@@ -49,6 +49,8 @@ pub struct Report {
     pub free: FreeCurve,
     /// Wall time of the whole run (s).
     pub wall_s: f64,
+    /// Wall time of each phase (s).
+    pub phases: PhaseTimes,
     /// Skin steps per DEM step over the whole run (≥ 1; more where the
     /// skin's stable step is the shorter).
     pub skin_steps_per_dem_step: f64,
@@ -261,8 +263,13 @@ impl Report {
         }
         let _ = writeln!(
             s,
-            "wall time {:.1} s; skin steps per DEM step {:.2}",
-            self.wall_s, self.skin_steps_per_dem_step
+            "wall time {:.1} s (free curve {:.1}, settling {:.1}, advance {:.1}, expansion {:.1}); skin steps per DEM step {:.2}",
+            self.wall_s,
+            self.phases.free_curve_s,
+            self.phases.settling_s,
+            self.phases.advance_s,
+            self.phases.expansion_s,
+            self.skin_steps_per_dem_step
         );
         if self.skin_added_mass > 0.0 {
             let _ = writeln!(
@@ -315,22 +322,43 @@ pub struct Options {
     pub progress: bool,
 }
 
+/// Wall time of a run's phases (s), for finding where a case's time goes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PhaseTimes {
+    /// The free skin's curve p_free(D) (0 when it was shared, as in an
+    /// ensemble).
+    pub free_curve_s: f64,
+    /// Building and settling the bed, the stiffening included.
+    pub settling_s: f64,
+    /// The advance (and any hold after it).
+    pub advance_s: f64,
+    /// The expansion, the VTK frames included.
+    pub expansion_s: f64,
+}
+
 /// Builds, settles and inflates `opts.spec`, writing samples.csv,
 /// pressures.svg, summary.txt and vtk/ frames under `opts.out`.
 pub fn simulate(opts: &Options) -> Result<Report> {
     let t0 = Instant::now();
     let free = FreeCurve::of(&opts.spec)?;
-    simulate_with(opts, free, t0)
+    simulate_with(opts, free, t0.elapsed().as_secs_f64())
 }
 
 /// [`simulate`] with the zone's free curve `free` already computed (it
-/// depends on the skin only, so runs differing in the sand share it);
-/// the wall time counts from `t0`.
-pub fn simulate_with(opts: &Options, free: FreeCurve, t0: Instant) -> Result<Report> {
+/// depends on the skin only, so runs differing in the sand share it), in
+/// `free_curve_s` (s; counted in the wall time, 0 when shared).
+pub fn simulate_with(opts: &Options, free: FreeCurve, free_curve_s: f64) -> Result<Report> {
+    let t0 = Instant::now();
+    let mut phases = PhaseTimes {
+        free_curve_s,
+        ..PhaseTimes::default()
+    };
     let bar = run::progress_bar(opts.progress)?;
     let mut bed = build(&opts.spec)?;
     let settled = run::settle(&mut bed, &bar)?;
+    phases.settling_s = t0.elapsed().as_secs_f64();
     run::advance(&mut bed, &bar)?;
+    phases.advance_s = t0.elapsed().as_secs_f64() - phases.settling_s;
     let mut frames: Vec<(String, String, f64)> = Vec::new();
     let samples = run::inflate(&mut bed, &bar, |b, k| {
         if let Some(dir) = &opts.out {
@@ -339,6 +367,8 @@ pub fn simulate_with(opts: &Options, free: FreeCurve, t0: Instant) -> Result<Rep
         Ok(())
     })?;
     bar.finish_and_clear();
+    let run_s = t0.elapsed().as_secs_f64();
+    phases.expansion_s = run_s - phases.settling_s - phases.advance_s;
     let report = Report {
         spec: opts.spec.clone(),
         grains: (bed.slab_grains, bed.surcharge_grains),
@@ -346,7 +376,8 @@ pub fn simulate_with(opts: &Options, free: FreeCurve, t0: Instant) -> Result<Rep
         settled,
         samples,
         free,
-        wall_s: t0.elapsed().as_secs_f64(),
+        wall_s: free_curve_s + run_s,
+        phases,
         skin_steps_per_dem_step: bed.coupling.skin_steps as f64
             / bed.state.step_count.max(1) as f64,
         skin_added_mass: bed.coupling.max_added_mass,

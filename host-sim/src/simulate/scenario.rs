@@ -179,6 +179,8 @@ pub struct ScenarioSpec {
     pub skin_stiffness_scale: f64,
     /// Friction of the grains on the box's side walls (−).
     pub wall_friction: f64,
+    /// Friction of the grains on the skin (−).
+    pub skin_friction: f64,
     /// Inter-grain friction while the bed is deposited, the first half of
     /// settling (−); the paper's μ after that. Below μ it packs denser.
     pub deposition_friction: f64,
@@ -258,6 +260,7 @@ impl ScenarioSpec {
             rolling_friction: ROLLING_FRICTION,
             skin_stiffness_scale: SKIN_STIFFNESS_SCALE,
             wall_friction: FRICTION,
+            skin_friction: FRICTION,
             deposition_friction: 0.0,
             tube: TubeGeometry::PAPER,
             skin_coefficients: None,
@@ -354,6 +357,7 @@ impl ScenarioSpec {
             settle_s: Self::column_settle_s(below_m + self.above_m),
             final_diameter_m,
             wall_friction,
+            skin_friction: sand.friction,
             skin_stiffness_scale: if skin_coefficients.is_some() {
                 1.0
             } else {
@@ -683,10 +687,13 @@ impl ScenarioSpec {
             self.water_density_kg_m3
         );
         ensure!(
-            (0.0..=2.0).contains(&self.friction) && (0.0..=2.0).contains(&self.wall_friction),
-            "friction {} and wall friction {} must lie in 0..=2",
+            [self.friction, self.wall_friction, self.skin_friction]
+                .iter()
+                .all(|m| (0.0..=2.0).contains(m)),
+            "friction {}, wall friction {} and skin friction {} must lie in 0..=2",
             self.friction,
-            self.wall_friction
+            self.wall_friction,
+            self.skin_friction
         );
         ensure!(
             pos(self.settle_s) && pos(self.expansion_s) && self.frames >= 1 && self.samples >= 1,
@@ -789,8 +796,10 @@ impl Bed {
 struct Laws {
     dt_s: f64,
     mat: Material,
-    /// Grain–grain, grain–skin and grain–face: the sand's friction.
+    /// Grain–grain and grain–face: the sand's friction.
     rough: ContactSpec,
+    /// Grain–skin.
+    on_skin: ContactSpec,
     /// Grain–wall, in [`wall`] order: smooth floor, back and far end, the
     /// sides at the wall friction.
     walls: [ContactSpec; 5],
@@ -814,6 +823,10 @@ impl Laws {
         Laws {
             dt_s: spec.dt_at_s(modulus_pa),
             mat: spec.sand_at(modulus_pa),
+            on_skin: ContactSpec {
+                friction: spec.skin_friction,
+                ..rough
+            },
             rough,
             walls: [smooth, side, side, smooth, smooth],
         }
@@ -829,7 +842,7 @@ impl Laws {
         Ok(ContactModel::hertz_mindlin(
             &self.mat,
             &skin_material(law),
-            &self.rough,
+            &self.on_skin,
         )?)
     }
 }
