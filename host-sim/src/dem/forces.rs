@@ -328,10 +328,10 @@ pub enum Simd {
 /// The pair pass's instruction set: 0 = not chosen yet, else `Simd as u8 + 1`.
 static SIMD: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(0);
 
-/// The instruction set the pair pass uses: AVX2 where the CPU has it
-/// (detected once), unless the environment variable
-/// `URECHIS_DEM_SIMD=baseline` or [`use_simd`] asks for the baseline.
-/// Either gives the same bits.
+/// The instruction set the pair pass and the solid skin's element loop
+/// use: AVX2 where the CPU has it (detected once), unless the environment
+/// variable `URECHIS_DEM_SIMD=baseline` or [`use_simd`] asks for the
+/// baseline. Either gives the same bits.
 pub fn simd() -> Simd {
     use std::sync::atomic::Ordering::Relaxed;
     match SIMD.load(Relaxed) {

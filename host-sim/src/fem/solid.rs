@@ -138,6 +138,7 @@ impl Hex {
     }
 
     /// Deformation gradient at point `g` (0–7 Gauss, 8 centre).
+    #[inline(always)]
     fn deformation(&self, g: usize, x: &[Vector3<f64>; 8]) -> Matrix3<f64> {
         // Written out: nalgebra's outer product went through a generic
         // matrix–vector loop, the element loop's hot spot.
@@ -180,6 +181,7 @@ struct Invariants {
 
 /// The cofactor matrix of F, cof F = J·F⁻ᵀ, and J = det F: F⁻ᵀ without a
 /// division, which the mean-dilatation pressure term needs as J·F⁻ᵀ anyway.
+#[inline(always)]
 fn cofactor(f: &Matrix3<f64>) -> (Matrix3<f64>, f64) {
     let m = |i: usize, j: usize| f[(i, j)];
     #[rustfmt::skip]
@@ -193,6 +195,7 @@ fn cofactor(f: &Matrix3<f64>) -> (Matrix3<f64>, f64) {
 }
 
 /// The invariants of F of determinant `j`; `None` when J ≤ 0.
+#[inline(always)]
 fn invariants(f: &Matrix3<f64>, j: f64) -> Option<Invariants> {
     if !(j > 0.0 && j.is_finite()) {
         return None;
@@ -222,6 +225,7 @@ fn invariants(f: &Matrix3<f64>, j: f64) -> Option<Invariants> {
 /// the quadratic Taylor guess reach the last bit (its error 0.3 % at
 /// worst, then 2e-5, 1e-9, 2e-18); elsewhere (a collapsing element) the
 /// library root. The software cube root was the element loop's hot spot.
+#[inline(always)]
 fn inverse_cube_root(j: f64) -> f64 {
     let d = j - 1.0;
     if d.abs() > 0.25 {
@@ -239,6 +243,7 @@ fn inverse_cube_root(j: f64) -> f64 {
 /// cofactor `cof` and determinant `j` ([`cofactor`]); `None` when J ≤ 0.
 /// With F⁻ᵀ = cof/J it is a·F + b·cof, plus the I2 terms for laws that
 /// have them.
+#[inline(always)]
 fn isochoric_stress<S: StrainEnergy + ?Sized>(
     law: &S,
     f: &Matrix3<f64>,
@@ -400,7 +405,7 @@ impl Solid {
         let forces: Vec<Result<[Vector3<f64>; 8], FemError>> = (0..self.hexes.len())
             .into_par_iter()
             .with_min_len(CHUNK)
-            .map(|k| self.hex_forces_n(law, k, position_m))
+            .map(|k| self.hex_forces_dispatch(law, k, position_m))
             .collect();
         for (hex, f) in self.hexes.iter().zip(forces) {
             for (a, fa) in hex.nodes.iter().zip(f?) {
@@ -410,7 +415,36 @@ impl Solid {
         Ok(())
     }
 
+    /// [`Solid::hex_forces_n`] in its AVX2 copy where the DEM's pair pass
+    /// uses AVX2 ([`crate::dem::simd`]), else the baseline one: the same
+    /// operations in the same order, so the same bits.
+    fn hex_forces_dispatch<S: StrainEnergy + ?Sized>(
+        &self,
+        law: &S,
+        k: usize,
+        position_m: &[Vector3<f64>],
+    ) -> Result<[Vector3<f64>; 8], FemError> {
+        #[cfg(target_arch = "x86_64")]
+        if crate::dem::simd() == crate::dem::Simd::Avx2 {
+            // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
+            return unsafe { self.hex_forces_avx2(law, k, position_m) };
+        }
+        self.hex_forces_n(law, k, position_m)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn hex_forces_avx2<S: StrainEnergy + ?Sized>(
+        &self,
+        law: &S,
+        k: usize,
+        position_m: &[Vector3<f64>],
+    ) -> Result<[Vector3<f64>; 8], FemError> {
+        self.hex_forces_n(law, k, position_m)
+    }
+
     /// The nodal forces (N) of hexahedron `k`.
+    #[inline(always)]
     fn hex_forces_n<S: StrainEnergy + ?Sized>(
         &self,
         law: &S,
