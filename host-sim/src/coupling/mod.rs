@@ -467,25 +467,22 @@ impl TriangleGrid {
             triangles: Vec::new(),
             boxes,
         };
-        // Count, then place: cell c's count lands in start[c + 1], the
-        // running sum turns counts into offsets, and placing advances
-        // start[c] to where cell c + 1 begins; a shift puts them back.
-        for k in 0..grid.boxes.len() {
-            grid.for_cells_of(k, |c, start| start[c + 1] += 1);
+        // Count into start[c + 1], turn the counts into offsets by a
+        // running sum, then place each triangle, ascending, from its
+        // cells' offsets.
+        let spans: Vec<_> = (0..grid.boxes.len()).map(|k| grid.span(k)).collect();
+        for span in &spans {
+            for c in grid.cells(span) {
+                grid.start[c + 1] += 1;
+            }
         }
         for c in 1..grid.start.len() {
             grid.start[c] += grid.start[c - 1];
         }
         grid.triangles = vec![0; grid.start[grid.start.len() - 1]];
         let mut next = grid.start.clone();
-        for k in 0..grid.boxes.len() {
-            let mut cells = [0usize; 8];
-            let mut count = 0;
-            grid.for_cells_of(k, |c, _| {
-                cells[count] = c;
-                count += 1;
-            });
-            for &c in &cells[..count] {
+        for (k, span) in spans.iter().enumerate() {
+            for c in grid.cells(span) {
                 grid.triangles[next[c]] = k;
                 next[c] += 1;
             }
@@ -493,17 +490,19 @@ impl TriangleGrid {
         grid
     }
 
-    /// Calls `f(cell, start)` for each cell triangle `k`'s box overlaps.
-    fn for_cells_of(&mut self, k: usize, mut f: impl FnMut(usize, &mut Vec<usize>)) {
-        let (lo, hi) = self.boxes[k];
-        let (a, b) = (self.cell_of(&lo), self.cell_of(&hi));
-        for i in a[0]..=b[0] {
-            for j in a[1]..=b[1] {
-                for l in a[2]..=b[2] {
-                    f(self.index(i, j, l), &mut self.start);
-                }
-            }
-        }
+    /// The first and last cell (per axis) of triangle `k`'s grown box.
+    fn span(&self, k: usize) -> ([usize; 3], [usize; 3]) {
+        let (lo, hi) = &self.boxes[k];
+        (self.cell_of(lo), self.cell_of(hi))
+    }
+
+    /// The indices of the cells from `span.0` to `span.1`.
+    fn cells(&self, span: &([usize; 3], [usize; 3])) -> impl Iterator<Item = usize> {
+        let ([i0, j0, l0], [i1, j1, l1]) = *span;
+        let [nx, ny, _] = self.dims;
+        (l0..=l1).flat_map(move |l| {
+            (j0..=j1).flat_map(move |j| (i0..=i1).map(move |i| (l * ny + j) * nx + i))
+        })
     }
 
     /// The cell (per axis) of a point inside the bounds.
