@@ -499,9 +499,9 @@ impl TriangleGrid {
     /// The indices of the cells from `span.0` to `span.1`.
     fn cells(&self, span: &([usize; 3], [usize; 3])) -> impl Iterator<Item = usize> {
         let ([i0, j0, l0], [i1, j1, l1]) = *span;
-        let [nx, ny, _] = self.dims;
+        let dims = self.dims;
         (l0..=l1).flat_map(move |l| {
-            (j0..=j1).flat_map(move |j| (i0..=i1).map(move |i| (l * ny + j) * nx + i))
+            (j0..=j1).flat_map(move |j| (i0..=i1).map(move |i| cell_index(dims, [i, j, l])))
         })
     }
 
@@ -511,10 +511,6 @@ impl TriangleGrid {
             let c = ((x[a] - self.bounds.0[a]) / self.cell_m).floor();
             (c.max(0.0) as usize).min(self.dims[a].saturating_sub(1))
         })
-    }
-
-    fn index(&self, i: usize, j: usize, l: usize) -> usize {
-        (l * self.dims[1] + j) * self.dims[0] + i
     }
 
     /// Whether `p` lies in triangle `k`'s grown box (every point within the
@@ -531,8 +527,12 @@ impl TriangleGrid {
         if self.triangles.is_empty() {
             return &[];
         }
-        let [i, j, l] = self.cell_of(p);
-        let c = self.index(i, j, l);
+        let c = cell_index(self.dims, self.cell_of(p));
         &self.triangles[self.start[c]..self.start[c + 1]]
     }
+}
+
+/// The index of cell `[i, j, l]` in a block of `dims` cells, x fastest.
+fn cell_index(dims: [usize; 3], [i, j, l]: [usize; 3]) -> usize {
+    (l * dims[1] + j) * dims[0] + i
 }

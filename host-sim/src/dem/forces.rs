@@ -389,7 +389,7 @@ struct Inputs<'a> {
 macro_rules! dispatch {
     ($simd:expr, $run:ident . $avx2:ident / $any:ident ( $($arg:expr),* )) => {{
         #[cfg(target_arch = "x86_64")]
-        if $simd == Simd::Avx2 {
+        if $simd == $crate::dem::Simd::Avx2 {
             // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
             unsafe { $run.$avx2($($arg),*) }
         } else {
@@ -399,6 +399,8 @@ macro_rules! dispatch {
         $run.$any($($arg),*)
     }};
 }
+// For the other loops compiled twice (`fem::solid`'s element forces).
+pub(crate) use dispatch;
 
 impl PairRun<'_> {
     /// Evaluates the straddling pairs `mine` (list indices, ascending; the

@@ -37,6 +37,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 pub use contact::{ContactModel, ContactSpec, Material};
+pub(crate) use forces::dispatch;
 pub use forces::{best_simd, simd, use_simd, Simd};
 pub use neighbour::NeighbourList;
 pub use particles::Particles;

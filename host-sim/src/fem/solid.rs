@@ -424,12 +424,10 @@ impl Solid {
         k: usize,
         position_m: &[Vector3<f64>],
     ) -> Result<[Vector3<f64>; 8], FemError> {
-        #[cfg(target_arch = "x86_64")]
-        if crate::dem::simd() == crate::dem::Simd::Avx2 {
-            // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
-            return unsafe { self.hex_forces_avx2(law, k, position_m) };
-        }
-        self.hex_forces_n(law, k, position_m)
+        crate::dem::dispatch!(
+            crate::dem::simd(),
+            self.hex_forces_avx2 / hex_forces_n(law, k, position_m)
+        )
     }
 
     #[cfg(target_arch = "x86_64")]
