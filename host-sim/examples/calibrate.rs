@@ -77,7 +77,14 @@ fn run() -> Result<()> {
     let end_row = num(25, spec.skin_end_row_m.map_or(0.0, |m| m * 1e3))?;
     spec.skin_end_row_m = (end_row > 0.0).then_some(end_row * 1e-3);
     spec.advance_hold_s = num(22, spec.advance_hold_s)?;
-    spec.head_held = num(23, 0.0)? != 0.0;
+    // HEAD_HELD: 1 held, 0 free (the sweeps before session 14), else
+    // drawn (2: the meridian law, -R: drawn back R mm).
+    spec.head = match num(23, 0.0)? {
+        0.0 => host_sim::simulate::HeadSupport::Free,
+        1.0 => host_sim::simulate::HeadSupport::Held,
+        2.0 => host_sim::simulate::HeadSupport::Drawn,
+        r => host_sim::simulate::HeadSupport::DrawnBy(-r * 1e-3),
+    };
     spec.skin_mass_scaling = num(26, 1.0)? != 0.0;
     let above = num(6, 0.0)? * 1e-3;
     if above > 0.0 {

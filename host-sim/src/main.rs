@@ -93,10 +93,14 @@ enum Command {
         /// inflates: how much of the face's load outlasts the head's motion.
         #[arg(long = "advance-hold-ms", default_value_t = 0.0)]
         advance_hold_ms: f64,
-        /// Hold the head where the advance left it through the expansion
-        /// (a head on a rigid body) instead of freeing it.
-        #[arg(long = "head-held")]
-        head_held: bool,
+        /// What moves the head through the expansion: `drawn` (default:
+        /// drawn back as the swelling zone's meridians would draw it if
+        /// they kept their length, the body's longitudinal muscles),
+        /// `free` (the skin and the sand on its face alone), `held` (a head
+        /// on a rigid body), or a distance in mm (drawn back that far by
+        /// the final diameter, the same square law).
+        #[arg(long = "head", value_name = "SUPPORT", default_value = "drawn")]
+        head: host_sim::simulate::HeadSupport,
         /// The solid wall's hexahedra through the thickness (the paper's
         /// element family, rows graded to 0.35 mm at the clamped ends;
         /// default 2).
@@ -365,7 +369,7 @@ fn run(cli: Cli) -> Result<()> {
             expansion_s,
             advance_mm,
             advance_hold_ms,
-            head_held,
+            head,
             solid_skin,
             membrane_skin,
             skin_mass_unscaled,
@@ -412,7 +416,7 @@ fn run(cli: Cli) -> Result<()> {
             spec.face_grain_radius_m = face_grain_radius_mm.map(|f| f * 1e-3);
             spec.advance_m = advance_mm * 1e-3;
             spec.advance_hold_s = advance_hold_ms * 1e-3;
-            spec.head_held = head_held;
+            spec.head = head;
             if let Some(layers) = solid_skin {
                 anyhow::ensure!(layers >= 1, "--solid-skin: at least 1 layer");
                 spec = spec.with_solid(layers);

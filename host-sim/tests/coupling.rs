@@ -1,7 +1,7 @@
 //! Particle–skin contact: force balance, the Hertz penalty, a bounce on
 //! the pressurised skin, and the front face's pressure.
 
-use host_sim::coupling::{expand, Coupling, Expansion, FrontFace};
+use host_sim::coupling::{expand, Coupling, Expansion, ExpansionError, FrontFace, HeadDraw};
 use host_sim::dem::contact::{ContactModel, ContactSpec, Material};
 use host_sim::dem::{step, Params, Particles, State, Wall};
 use host_sim::fem::{Ends, Skin, SkinSpec};
@@ -402,6 +402,7 @@ fn a_slow_expansion_in_free_water_follows_the_static_skin_curve() {
         bulk_modulus_pa: 1e6,
         sample_every: 500,
         max_steps: 20_000,
+        head_draw: None,
     };
     let mut seen = 0;
     let samples = expand(&params, &mut state, &mut c, &e, |_| seen += 1).unwrap();
@@ -428,4 +429,100 @@ fn a_slow_expansion_in_free_water_follows_the_static_skin_curve() {
     );
     assert!(err.abs() < 0.02, "{err}");
     assert_eq!(last.sand_pressure_pa, 0.0);
+}
+
+#[test]
+fn the_head_draw_grows_as_the_square_of_the_swelling() {
+    // The paper's zone, 18.7 → 25 mm over 20 mm: π² (3.15 mm)² / 80 mm.
+    let law = HeadDraw::meridian(18.7e-3, 25e-3, 20e-3);
+    let want = std::f64::consts::PI.powi(2) * 3.15e-3_f64.powi(2) / 80e-3;
+    assert!(
+        (law.final_receding_m - want).abs() < 1e-15,
+        "{}",
+        law.final_receding_m
+    );
+    assert!((law.final_receding_m - 1.2241e-3).abs() < 1e-7);
+    assert_eq!(law.receding_at_m(18.0e-3), 0.0);
+    assert_eq!(law.receding_at_m(18.7e-3), 0.0);
+    assert!((law.receding_at_m(21.85e-3) - 0.25 * want).abs() < 1e-15);
+    assert!((law.receding_at_m(25e-3) - want).abs() < 1e-15);
+}
+
+#[test]
+fn a_head_draw_needs_a_free_head_and_a_sane_law() {
+    let skin = Skin::new(default_skin(), &SkinSpec::paper(24, 6), Ends::Clamped).unwrap();
+    let model =
+        ContactModel::hertz_mindlin(&SAND, &skin_material(), &ContactSpec::default()).unwrap();
+    let dt = 5e-5;
+    let params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    let mut state = State::new(Particles::new());
+    let mut c = Coupling::new(skin, model, dt).unwrap();
+    let law = HeadDraw::meridian(18.7e-3, 25e-3, 20e-3);
+    let mut e = Expansion {
+        final_diameter_m: 25e-3,
+        volume_rate_m3_s: 1e-5,
+        bulk_modulus_pa: 1e6,
+        sample_every: 500,
+        max_steps: 10,
+        head_draw: Some(law),
+    };
+    let err = expand(&params, &mut state, &mut c, &e, |_| ()).unwrap_err();
+    assert!(
+        matches!(err, ExpansionError::Param { name, .. } if name.contains("without a free head")),
+        "{err}"
+    );
+    e.head_draw = Some(HeadDraw {
+        final_diameter_m: 18e-3,
+        ..law
+    });
+    let err = expand(&params, &mut state, &mut c, &e, |_| ()).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ExpansionError::Param {
+                name: "head_draw.final_diameter_m",
+                ..
+            }
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_front_face_never_pulls_a_grain_that_leaves_it() {
+    // A grain overlapping the face by 1 µm and leaving at 0.2 m/s: the
+    // viscoelastic damping term outweighs the Hertz push, so the law's
+    // normal force pulls (checked below); the face lets the grain go
+    // instead, reading no pressure.
+    let dt = 1e-6;
+    let spec = ContactSpec::default();
+    let model = ContactModel::hertz_mindlin(&SAND, &SAND, &spec).unwrap();
+    let mut face = FrontFace::new(Vector3::zeros(), Vector3::z(), 5e-3, model, dt).unwrap();
+    let r = 1e-3;
+    let mut p = Particles::new();
+    p.push(
+        Vector3::new(0.0, 0.0, r - 1e-6),
+        Vector3::new(0.0, 0.0, 0.2),
+        r,
+        2920.0,
+    )
+    .unwrap();
+    let g = host_sim::dem::contact::ContactGeometry::sphere_on_surface(
+        Vector3::z(),
+        1e-6,
+        r,
+        p.mass_kg[0],
+        p.velocity_m_s[0],
+        Vector3::zeros(),
+    );
+    let law = model.evaluate(&g, dt, &mut Default::default());
+    assert!(law.force_n.z < 0.0, "the law pulls: {}", law.force_n.z);
+    face.apply(&mut p);
+    assert_eq!(face.normal_force_n(), 0.0);
+    assert_eq!(face.pressure_pa(), 0.0);
+    assert_eq!(p.force_n[0], Vector3::zeros());
+    // Approaching, the same overlap pushes.
+    p.velocity_m_s[0] = Vector3::new(0.0, 0.0, -0.2);
+    face.apply(&mut p);
+    assert!(p.force_n[0].z > 0.0 && face.normal_force_n() > 0.0);
 }

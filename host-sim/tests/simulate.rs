@@ -5,7 +5,7 @@
 
 use host_sim::experiment::Rig;
 use host_sim::fem::Ends;
-use host_sim::simulate::{simulate, FreeCurve, Options, ScenarioSpec};
+use host_sim::simulate::{simulate, FreeCurve, HeadSupport, Options, ScenarioSpec};
 
 /// A tiny, coarse case at 40 mm (grains of `radius_m`, sand to 20 mm over
 /// the axis under a surcharge), settling `settle_s` and expanding over
@@ -75,11 +75,9 @@ fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone(
     assert_eq!(csv.lines().count(), report.samples.len() + 1);
     assert!(
         csv.starts_with("time_s,diameter_mm,")
-            && csv
-                .lines()
-                .next()
-                .unwrap()
-                .ends_with(",head_receding_mm,sand_share_kpa,min_caliper_mm,max_caliper_mm")
+            && csv.lines().next().unwrap().ends_with(
+                ",head_receding_mm,sand_share_kpa,min_caliper_mm,max_caliper_mm,head_pull_n"
+            )
     );
     // The calipers bracket D (its ring's mean).
     for s in &report.samples {
@@ -93,6 +91,9 @@ fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone(
     let free = report.free.pressure_pa(last.outer_diameter_m).unwrap();
     assert!(m.sand_share_pa > 0.0 && m.sand_share_pa < m.internal_pressure_pa);
     assert!((last.internal_pressure_pa - report.sand_share_pa(last).unwrap() - free).abs() < 1e-9);
+    // The swelling zone pushes its drawn head forward: the body pulls it
+    // back (a free head would come forward, session 14).
+    assert!(m.head_pull_n > 0.0, "{}", m.head_pull_n);
     // The head moved with the expansion, by less than a grain.
     assert!(
         m.head_receding_m.abs() < spec.grain_radius_m,
@@ -176,14 +177,15 @@ fn impossible_cases_are_refused_with_what_is_wrong() {
 }
 
 #[test]
-fn a_held_head_stays_where_the_advance_left_it_and_a_free_one_recoils() {
+fn a_held_head_stays_a_free_one_recoils_and_a_drawn_one_follows_its_law() {
     // The tiny bed, advanced 1 mm into: freed, the loaded face pushes the
     // head back at once (nothing but the skin holds it); held, it does
-    // not move at all, and the face keeps bearing on the sand.
-    let run = |head_held: bool| {
+    // not move at all, and the face keeps bearing on the sand; drawn, it
+    // recedes with the square of the swelling, never coming forward.
+    let run = |head: HeadSupport| {
         simulate(&Options {
             spec: ScenarioSpec {
-                head_held,
+                head,
                 advance_hold_s: 0.002,
                 ..tiny(2.5e-3, 0.4, 0.04, 1)
             },
@@ -192,23 +194,73 @@ fn a_held_head_stays_where_the_advance_left_it_and_a_free_one_recoils() {
         })
         .unwrap()
     };
-    let held = run(true);
+    let held = run(HeadSupport::Held);
     assert!(held
         .text()
         .contains("1.00 mm advance and a 2.0 ms pause, the head then held"));
     assert!(held.samples.iter().all(|s| s.head_receding_m == 0.0));
-    let free = run(false);
+    let free = run(HeadSupport::Free);
     let recoil = free
         .samples
         .iter()
         .map(|s| s.head_receding_m)
         .fold(0.0, f64::max);
     assert!(recoil > 0.05e-3, "the free head receded at most {recoil} m");
-    // The pause is the same in both: the same start.
+    // The pause is the same in all: the same start.
     assert_eq!(
         held.samples[0].face_pressure_pa,
         free.samples[0].face_pressure_pa
     );
+    let drawn = run(HeadSupport::Drawn);
+    assert_eq!(
+        drawn.samples[0].face_pressure_pa,
+        free.samples[0].face_pressure_pa
+    );
+    let d0 = drawn.samples[0].outer_diameter_m;
+    let law = drawn.spec.head_draw(d0, 20e-3).unwrap();
+    // π² δ² / (4 L) for the paper's zone: δ = (25 − D0) / 2, L = 20 mm.
+    let rise = 0.5 * (25e-3 - d0);
+    assert!(
+        (law.final_receding_m - 9.8696 * rise * rise / 80e-3).abs() < 1e-6 * law.final_receding_m
+    );
+    let mut reached = d0;
+    for w in drawn.samples.windows(2) {
+        assert!(w[1].head_receding_m >= w[0].head_receding_m - 1e-12);
+        reached = reached.max(w[1].outer_diameter_m);
+        // Where the law put it by the end of the step before the sample:
+        // the largest diameter then differs by at most one step's swelling.
+        let want = law.receding_at_m(reached);
+        assert!(
+            (w[1].head_receding_m - want).abs() < 0.02 * law.final_receding_m,
+            "D_r {} m against the law's {want} m at {reached} m",
+            w[1].head_receding_m
+        );
+    }
+    let last = drawn.samples.last().unwrap();
+    assert!(last.head_receding_m > 0.9 * law.receding_at_m(last.outer_diameter_m));
+}
+
+#[test]
+fn head_supports_read_from_the_command_line() {
+    assert_eq!("drawn".parse::<HeadSupport>(), Ok(HeadSupport::Drawn));
+    assert_eq!("free".parse::<HeadSupport>(), Ok(HeadSupport::Free));
+    assert_eq!("held".parse::<HeadSupport>(), Ok(HeadSupport::Held));
+    assert_eq!(
+        "0.5".parse::<HeadSupport>(),
+        Ok(HeadSupport::DrawnBy(0.5e-3))
+    );
+    for h in [
+        HeadSupport::Drawn,
+        HeadSupport::Free,
+        HeadSupport::Held,
+        HeadSupport::DrawnBy(0.25e-3),
+    ] {
+        assert_eq!(h.to_string().parse::<HeadSupport>(), Ok(h));
+    }
+    for bad in ["-1", "nan", "pulled"] {
+        let e = bad.parse::<HeadSupport>().unwrap_err();
+        assert!(e.contains(bad) && e.contains("drawn, free, held"), "{e}");
+    }
 }
 
 /// The paper's set-up as a rig.toml with the skin left to the solver's
@@ -675,12 +727,15 @@ fn the_shell_skin_bends_where_it_leaves_the_body_and_the_head() {
 fn a_solid_skin_recoils_less_than_the_membrane_and_touches_the_sand_with_its_outer_face() {
     // The tiny bed advanced into, the head then freed, with the membrane
     // and with the solid wall of `with_solid`. A membrane has no stiffness
-    // in compression, so the loaded face pushes the head back at once; the
+    // in compression, so the loaded face pushes the free head back at once; the
     // solid wall resists as a tube does and the head recedes about half as
     // far (0.46–0.54× as the skin's step and the settling's mass scaling
     // changed the bed's last bits). Both touch the sand as they swell.
     let run = |layers: usize| {
-        let spec = tiny(2.5e-3, 0.4, 0.04, 1);
+        let spec = ScenarioSpec {
+            head: HeadSupport::Free,
+            ..tiny(2.5e-3, 0.4, 0.04, 1)
+        };
         // One layer on a coarse uniform mesh: the case's graded mesh is
         // for the fold at the clamp, not needed here, and ten times slower.
         let spec = if layers > 0 {

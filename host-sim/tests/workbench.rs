@@ -30,6 +30,27 @@ fn primary(d: &Diagnosis, effect: &str, param: &str) -> f64 {
 /// One hidden effect: ranked first, selected alone, primary parameter
 /// within 15 %, final RMSE within 1.5× the noise floor, nothing unexplained.
 fn hidden(name: &str, seed: u64) {
+    let (want, got) = hidden_fit(name, seed);
+    assert!(
+        (got - want).abs() <= 0.15 * want.abs(),
+        "{name}: fitted {got}, hidden {want}"
+    );
+}
+
+/// As [`hidden`], the primary parameter's mean over `seeds` within 15 %:
+/// for a parameter whose scatter between noise draws is itself near 15 %.
+fn hidden_over_seeds(name: &str, seeds: &[u64]) {
+    let fits: Vec<(f64, f64)> = seeds.iter().map(|&k| hidden_fit(name, k)).collect();
+    let want = fits[0].0;
+    let mean = fits.iter().map(|f| f.1).sum::<f64>() / fits.len() as f64;
+    assert!(
+        (mean - want).abs() <= 0.15 * want.abs(),
+        "{name}: fitted {fits:?}, mean {mean}, hidden {want}"
+    );
+}
+
+/// Runs [`hidden`]'s checks but the primary's; returns (hidden, fitted).
+fn hidden_fit(name: &str, seed: u64) -> (f64, f64) {
     let truth = typical(name).unwrap();
     let mut synth = case(vec![truth.clone()], DT_S, seed);
     if name == "piston_friction" {
@@ -48,16 +69,13 @@ fn hidden(name: &str, seed: u64) {
     let p = truth.spec.params[0].name;
     let (want, got) = (truth.values[0], primary(&d, name, p));
     assert!(
-        (got - want).abs() <= 0.15 * want.abs(),
-        "{name}.{p}: fitted {got}, hidden {want}"
-    );
-    assert!(
         d.final_rmse_kpa <= 1.5 * d.noise_floor_kpa,
         "{name}: final RMSE {} vs noise {}",
         d.final_rmse_kpa,
         d.noise_floor_kpa
     );
     assert!(d.unexplained.is_none(), "{name}: {:?}", d.unexplained);
+    (want, got)
 }
 
 fn names(d: &Diagnosis) -> Vec<(String, f64)> {
@@ -89,7 +107,11 @@ fn finds_hidden_piston_friction() {
 
 #[test]
 fn finds_hidden_trapped_air() {
-    hidden("trapped_air", 5);
+    // The gas volume trades off against the sand's rise (both set the
+    // early compliance): over seeds 1–16 it scatters by 11 % (SD) about
+    // the hidden 0.8 mL, twice its reported standard error, so one draw
+    // misses 15 % about one time in six. Their mean does not.
+    hidden_over_seeds("trapped_air", &[5, 6, 7, 8]);
 }
 
 #[test]

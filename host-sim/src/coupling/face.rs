@@ -101,9 +101,17 @@ impl FrontFace {
                 particles.angular_velocity_rad_s[i],
             );
             let cf = self.model.evaluate(&g, self.dt_s, &mut self.history[i]);
+            // No adhesion: a grain leaving the face faster than its
+            // overlap relaxes gets a damping force that pulls; the face
+            // lets it go instead (LAMMPS' `limit_damping`), so p_h ≥ 0.
+            let normal_n = cf.force_n.dot(&self.normal);
+            if normal_n <= 0.0 {
+                self.history[i] = History::default();
+                continue;
+            }
             particles.force_n[i] += cf.force_n;
             particles.torque_n_m[i] += cf.torque_per_radius_n * r + cf.rolling_torque_n_m;
-            self.normal_force_n += cf.force_n.dot(&self.normal);
+            self.normal_force_n += normal_n;
             self.contacts += 1;
         }
     }

@@ -29,7 +29,7 @@ use crate::dem::contact::{ContactForce, ContactGeometry, ContactModel, History};
 use crate::dem::{Particles, Sink};
 use crate::fem::{FemError, Skin};
 use crate::skin::StrainEnergy;
-pub use expansion::{expand, Expansion, ExpansionError};
+pub use expansion::{expand, Expansion, ExpansionError, HeadDraw};
 pub use face::FrontFace;
 use geometry::closest_point_on_triangle;
 
@@ -74,6 +74,9 @@ pub struct Sample {
     /// Head receding distance D_r (m), positive backwards; 0 when the
     /// skin has no free head.
     pub head_receding_m: f64,
+    /// Force the body takes from a driven or drawn head (N, + pulling it
+    /// back), [`crate::fem::Head::pull_n`]; 0 for a free head.
+    pub head_pull_n: f64,
 }
 
 /// The skin, its contact law with the particles, and an optional front
@@ -196,6 +199,7 @@ impl<S: StrainEnergy> Coupling<S> {
                 .map(|b| b.max_surface_strain(&self.skin.position_m)),
             contacts: self.last.contacts,
             head_receding_m: self.skin.head.map_or(0.0, |h| h.receding_m()),
+            head_pull_n: self.skin.head.map_or(0.0, |h| h.pull_n),
         })
     }
 

@@ -190,6 +190,10 @@ pub struct Head {
     /// When set, the head is driven at this axial velocity (m/s) whatever
     /// the forces on it (the body pushing it forward); `None`: free.
     pub driven_m_s: Option<f64>,
+    /// The axial force of the skin and the sand on a driven head in its
+    /// last step (N, + forward): what the body that drives it takes, its
+    /// inertia left out (+: the body pulls it back). 0 when free.
+    pub pull_n: f64,
 }
 
 impl Head {
@@ -202,6 +206,7 @@ impl Head {
             external_force_n: 0.0,
             origin_m: 0.0,
             driven_m_s: None,
+            pull_n: 0.0,
         }
     }
 
@@ -687,6 +692,7 @@ impl<S: StrainEnergy> Skin<S> {
                     .map(|a| self.mass_kg[a])
                     .sum::<f64>();
             let f = head_n + head.external_force_n;
+            head.pull_n = if head.driven_m_s.is_some() { f } else { 0.0 };
             head.velocity_m_s = match head.driven_m_s {
                 Some(v) => v,
                 None => (head.velocity_m_s * (1.0 - c) + f * (dt_s / m)) / (1.0 + c),

@@ -305,6 +305,8 @@ pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
     // The skin the runs used: hexahedra through its wall, 0 for the
     // mid-surface membrane.
     let _ = writeln!(s, "# skin_layers = {}", probe.skin_layers);
+    // What moved the head through the expansion (`simulate --head`).
+    let _ = writeln!(s, "# head = {}", probe.head);
     let _ = writeln!(s, "# run = {}", if quick { "quick" } else { "full" });
     let seeds: Vec<String> = opts
         .seed_list(&probe)

@@ -58,7 +58,7 @@ pub struct Ensemble {
 type Reader = fn(&Report) -> f64;
 
 /// The reported numbers: name (with its unit) and how to read it.
-const METRICS: [(&str, Reader); 14] = [
+const METRICS: [(&str, Reader); 15] = [
     ("settled_p_e_kpa", |r| r.settled.sand_pressure_pa * 1e-3),
     ("settled_p_h_kpa", |r| r.settled.face_pressure_pa * 1e-3),
     ("initial_p_h_kpa", |r| r.initial_face_pressure_pa() * 1e-3),
@@ -88,6 +88,9 @@ const METRICS: [(&str, Reader); 14] = [
     ("head_receding_mm", |r| {
         r.final_means()
             .map_or(f64::NAN, |m| m.head_receding_m * 1e3)
+    }),
+    ("head_pull_n", |r| {
+        r.final_means().map_or(f64::NAN, |m| m.head_pull_n)
     }),
     ("max_von_mises_mpa", |r| {
         r.final_means()

@@ -30,7 +30,7 @@ use crate::skin::membrane::TubeGeometry;
 pub use ensemble::Ensemble;
 pub use free_skin::FreeCurve;
 pub use run::Settled;
-pub use scenario::{build, Bed, ScenarioSpec};
+pub use scenario::{build, Bed, HeadSupport, ScenarioSpec};
 
 /// What a run produced.
 #[derive(Clone, Debug)]
@@ -89,6 +89,7 @@ impl Report {
                 .filter_map(|s| s.max_bending_strain)
                 .reduce(f64::max),
             head_receding_m: mean(&|s| s.head_receding_m),
+            head_pull_n: mean(&|s| s.head_pull_n),
             sand_share_pa: mean(&|s| self.sand_share_pa(s).unwrap_or(f64::NAN)),
         })
     }
@@ -198,10 +199,21 @@ impl Report {
             } else {
                 String::new()
             };
-            let held = if self.spec.head_held {
-                ", the head then held through the expansion"
-            } else {
-                ""
+            let held = match self.spec.head {
+                scenario::HeadSupport::Held => {
+                    ", the head then held through the expansion".to_string()
+                }
+                scenario::HeadSupport::Free => ", the head then free".to_string(),
+                _ => self
+                    .spec
+                    .head_draw(f.outer_diameter_m, self.spec.zone_length_m())
+                    .map_or_else(String::new, |d| {
+                        format!(
+                            ", the head then drawn back with the swelling, {:.2} mm by D = {:.2} mm",
+                            d.final_receding_m * 1e3,
+                            d.final_diameter_m * 1e3
+                        )
+                    }),
             };
             let _ = writeln!(
                 s,
@@ -214,9 +226,16 @@ impl Report {
             );
         }
         if let (Some(l), Some(m)) = (self.last(), self.final_means()) {
+            let pull = match self.spec.head {
+                scenario::HeadSupport::Free => String::new(),
+                _ => format!(
+                    " (the body pulling the head back with {:.3} N)",
+                    m.head_pull_n
+                ),
+            };
             let _ = writeln!(
                 s,
-                "final (means over D ≥ {:.2} mm, {} samples): p_i {:.3} kPa, sand's share of it Δp_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa (drop {:.1} % from the expansion's start at {:.3} kPa; {:.1} % over D ≥ {:.0} mm), D_r {:.2} mm, max von Mises {:.4} MPa",
+                "final (means over D ≥ {:.2} mm, {} samples): p_i {:.3} kPa, sand's share of it Δp_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa (drop {:.1} % from the expansion's start at {:.3} kPa; {:.1} % over D ≥ {:.0} mm), D_r {:.2} mm{pull}, max von Mises {:.4} MPa",
                 (l.outer_diameter_m - FINAL_WINDOW_M) * 1e3,
                 m.samples,
                 m.internal_pressure_pa * 1e-3,
@@ -306,6 +325,9 @@ pub struct FinalMeans {
     pub max_bending_strain: Option<f64>,
     /// Head receding distance D_r (m).
     pub head_receding_m: f64,
+    /// Force the body takes from a drawn or held head (N, + pulling it
+    /// back); 0 for a free head.
+    pub head_pull_n: f64,
     /// The sand's share of the internal pressure Δp_i = p_i − p_free(D)
     /// (Pa), the experiment's p_e (see [`free_skin`]).
     pub sand_share_pa: f64,

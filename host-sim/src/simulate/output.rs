@@ -37,6 +37,7 @@ pub fn samples_csv(report: &Report) -> Result<Vec<u8>> {
         "sand_share_kpa",
         "min_caliper_mm",
         "max_caliper_mm",
+        "head_pull_n",
     ];
     if shell {
         header.push("max_bending_strain");
@@ -55,6 +56,7 @@ pub fn samples_csv(report: &Report) -> Result<Vec<u8>> {
             format!("{:.5}", report.sand_share_pa(s).unwrap_or(f64::NAN) * 1e-3),
             format!("{:.4}", s.calipers_m.0 * 1e3),
             format!("{:.4}", s.calipers_m.1 * 1e3),
+            format!("{:.5}", s.head_pull_n),
         ];
         if shell {
             row.push(format!("{:.4}", s.max_bending_strain.unwrap_or(f64::NAN)));

@@ -5,7 +5,7 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::scenario::{grain_contacts, wall, Bed, FLUID_BULK_MODULUS_PA, RELAX_S};
+use super::scenario::{grain_contacts, wall, Bed, HeadSupport, FLUID_BULK_MODULUS_PA, RELAX_S};
 use crate::coupling::{expand, Expansion, Sample};
 use crate::dem::step;
 
@@ -153,11 +153,12 @@ fn stiffen(bed: &mut Bed, bar: &ProgressBar) -> Result<()> {
 /// `spec.advance_s`: the head and the zone's back ring move together (the
 /// whole body advancing, the skin unstrained), the zone holding its
 /// volume; then the body stops, holds the head for `spec.advance_hold_s`
-/// and frees it, unless `spec.head_held` (then it holds it throughout).
+/// and frees it, unless [`HeadSupport::Held`] (then it holds it
+/// throughout; [`inflate`] draws a [`HeadSupport::Drawn`] head).
 pub fn advance(bed: &mut Bed, bar: &ProgressBar) -> Result<()> {
     let spec = &bed.spec;
     if spec.advance_m <= 0.0 {
-        if let (true, Some(h)) = (spec.head_held, &mut bed.coupling.skin.head) {
+        if let (HeadSupport::Held, Some(h)) = (spec.head, &mut bed.coupling.skin.head) {
             h.driven_m_s = Some(0.0);
         }
         return Ok(());
@@ -188,7 +189,7 @@ pub fn advance(bed: &mut Bed, bar: &ProgressBar) -> Result<()> {
         }
     }
     if let Some(h) = &mut bed.coupling.skin.head {
-        if !spec.head_held {
+        if spec.head != HeadSupport::Held {
             h.driven_m_s = None;
         }
         h.velocity_m_s = 0.0;
@@ -241,6 +242,7 @@ pub fn inflate(
     if let Some(head) = &mut bed.coupling.skin.head {
         head.origin_m = head.displacement_m;
     }
+    let head_draw = spec.head_draw(d0, bed.coupling.skin.spec.length_m);
     let mut samples: Vec<Sample> = Vec::new();
     on_frame(bed, 0)?;
     for frame in 1..=spec.frames {
@@ -251,6 +253,7 @@ pub fn inflate(
             bulk_modulus_pa: FLUID_BULK_MODULUS_PA,
             sample_every,
             max_steps: 4 * total_steps,
+            head_draw,
         };
         let chunk = expand(&bed.params, &mut bed.state, &mut bed.coupling, &e, |s| {
             let done = (s.outer_diameter_m - d0) / (d1 - d0);

@@ -25,7 +25,7 @@ use anyhow::{ensure, Context, Result};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 
-use crate::coupling::{Coupling, FrontFace};
+use crate::coupling::{Coupling, FrontFace, HeadDraw};
 use crate::dem::{ContactModel, ContactSpec, Material, Params, Particles, State, Wall};
 use crate::experiment::Rig;
 use crate::fem::{Ends, FemError, Skin, SkinSpec, VolumeControl};
@@ -111,6 +111,62 @@ pub const WIDE_TANK_DIAMETERS: f64 = 3.0;
 pub const FLUID_BULK_MODULUS_PA: f64 = 1e6;
 /// Standard gravity (m/s²).
 pub const GRAVITY_M_S2: f64 = 9.81;
+
+/// What the body does with the head while the zone swells.
+///
+/// The paper's head recedes as the zone swells, little at first, more as
+/// D grows (its Figure 5), "pulled" by the skin. A free head on this solid
+/// wall does not: the sand holds the zone's lower side straight, the
+/// wall there props the head, and the zone lengthens under p_i, so the
+/// head comes forward and the face reloads (README-simulate, session 14).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HeadSupport {
+    /// Drawn back in step with the swelling, as the chord of a meridian
+    /// that keeps its length ([`crate::coupling::HeadDraw::meridian`]):
+    /// the longitudinal muscles (or an actuator's inextensible fibres)
+    /// keep the zone's skin from lengthening. For the paper's zone, D_r
+    /// reaches 1.2 mm at 25 mm. The default.
+    Drawn,
+    /// Drawn back by this much (m) by the final diameter, with the same
+    /// square law ([`crate::coupling::HeadDraw`]).
+    DrawnBy(f64),
+    /// Free: moved only by the skin and the sand on its face (the fluid's
+    /// push on the cap taken by the body, [`crate::fem::Ends::Head`]).
+    Free,
+    /// Held where the advance left it (a head on a rigid body, D_r = 0).
+    Held,
+}
+
+impl std::str::FromStr for HeadSupport {
+    type Err = String;
+
+    /// `drawn`, `free`, `held`, or a distance in mm (drawn back that far).
+    fn from_str(s: &str) -> Result<HeadSupport, String> {
+        match s {
+            "drawn" => Ok(HeadSupport::Drawn),
+            "free" => Ok(HeadSupport::Free),
+            "held" => Ok(HeadSupport::Held),
+            mm => match mm.parse::<f64>() {
+                Ok(v) if v >= 0.0 && v.is_finite() => Ok(HeadSupport::DrawnBy(v * 1e-3)),
+                _ => Err(format!(
+                    "head support {s:?}: expected drawn, free, held or a distance in mm ≥ 0"
+                )),
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for HeadSupport {
+    /// As `from_str` reads it (`--head`).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            HeadSupport::Drawn => write!(f, "drawn"),
+            HeadSupport::DrawnBy(m) => write!(f, "{}", m * 1e3),
+            HeadSupport::Free => write!(f, "free"),
+            HeadSupport::Held => write!(f, "held"),
+        }
+    }
+}
 
 /// Everything that sets up one scenario run.
 #[derive(Clone, Debug, PartialEq)]
@@ -213,10 +269,9 @@ pub struct ScenarioSpec {
     /// Pause after the advance (s): the body stops and holds the head
     /// where it is before the zone inflates. Default 0.
     pub advance_hold_s: f64,
-    /// The body holds the head where the advance left it for the whole
-    /// expansion (a head fixed to a rigid body, D_r = 0); default false:
-    /// the head is freed after the advance (and its pause).
-    pub head_held: bool,
+    /// What moves the head along the axis through the expansion, after
+    /// the advance (and its pause). Default [`HeadSupport::Drawn`].
+    pub head: HeadSupport,
     /// Young's modulus of the grains during the advance and the expansion
     /// (Pa); the time step scales as the Rayleigh time, ∝ 1/√E. Default
     /// [`GRAIN_MODULUS_PA`].
@@ -272,7 +327,7 @@ impl ScenarioSpec {
             advance_m: PAPER_ADVANCE_M,
             advance_s: 0.05,
             advance_hold_s: 0.0,
-            head_held: false,
+            head: HeadSupport::Drawn,
             grain_modulus_pa: GRAIN_MODULUS_PA,
             deposition_modulus_pa: DEPOSITION_MODULUS_PA,
         }
@@ -528,7 +583,27 @@ impl ScenarioSpec {
 
     /// Slab length along the axis: the zone plus the sand ahead (m).
     pub fn slab_length_m(&self) -> f64 {
-        SkinSpec::from_tube(&self.tube, 3, 1).length_m + self.ahead_m
+        self.zone_length_m() + self.ahead_m
+    }
+
+    /// Length of the expansion zone along the axis (m).
+    pub fn zone_length_m(&self) -> f64 {
+        SkinSpec::from_tube(&self.tube, 3, 1).length_m
+    }
+
+    /// The head's draw through an expansion from `start_diameter_m` (m) of
+    /// a zone `length_m` (m) long, to this case's final diameter; `None`
+    /// unless [`ScenarioSpec::head`] draws it.
+    pub fn head_draw(&self, start_diameter_m: f64, length_m: f64) -> Option<HeadDraw> {
+        let meridian = HeadDraw::meridian(start_diameter_m, self.final_diameter_m, length_m);
+        match self.head {
+            HeadSupport::Drawn => Some(meridian),
+            HeadSupport::DrawnBy(m) => Some(HeadDraw {
+                final_receding_m: m,
+                ..meridian
+            }),
+            HeadSupport::Free | HeadSupport::Held => None,
+        }
     }
 
     /// The smallest grain radius (m): the face block's, else the sand's.
