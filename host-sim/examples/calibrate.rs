@@ -10,7 +10,9 @@
 //! the axis; round 1: the zone's rings kept round; advance: its duration;
 //! around, along: the membrane's mesh, default 24 × 6; hold: the pause
 //! after the advance, the head held, before the expansion; head held 1:
-//! the head held through the expansion too; layers n ≥ 1: the skin as a
+//! the head held through the expansion too, 0 (default here, unlike
+//! `simulate`): free, 2: drawn back by the meridian law, −R: drawn back R mm
+//! (`ScenarioSpec::head`); layers n ≥ 1: the skin as a
 //! solid wall n hexahedra thick, `ScenarioSpec::with_solid`, with the
 //! around × along mesh when given, 0 (default here, unlike `simulate`):
 //! the membrane, `ScenarioSpec::with_membrane`; end row: the graded rows' length at the

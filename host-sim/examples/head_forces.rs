@@ -2,7 +2,9 @@
 //! frame through the paper's expansion: what pushes the head forward and
 //! what holds it back (README-simulate, session 13).
 //! `cargo run --profile sim --example head_forces -- [DEPTH_MM] [round]`
-//! (default 40 mm; `round`: the zone's rings kept round).
+//! (default 40 mm; `round`: the zone's rings kept round). The head is
+//! free, as in session 13's table (the scenario's default since session
+//! 14 draws it back; `simulate` reports the body's pull on it).
 //!
 //! Front half: the nodes ahead of mid-length, the head's ring included.
 //! Per frame, each force's z component (N, + forward): the fluid's pressure
@@ -13,7 +15,7 @@
 
 use anyhow::{Context, Result};
 use host_sim::fem::Skin;
-use host_sim::simulate::{build, run, ScenarioSpec};
+use host_sim::simulate::{build, run, HeadSupport, ScenarioSpec};
 use host_sim::skin::StrainEnergy;
 use nalgebra::Vector3;
 
@@ -30,6 +32,7 @@ fn run_case() -> Result<()> {
     };
     let mut spec = ScenarioSpec::paper(depth_mm * 1e-3, 1.5e-3);
     spec.round_zone = args.iter().any(|a| a == "round");
+    spec.head = HeadSupport::Free;
     let bar = run::progress_bar(false)?;
     let mut bed = build(&spec)?;
     run::settle(&mut bed, &bar)?;
