@@ -14,7 +14,7 @@
 //! - [`telemetry`]: raw serial captures of the board's telemetry → experiment
 //!   folders;
 //! - [`dem`]: discrete-element sand (Hertz–Mindlin spheres, walls);
-//! - [`bench`]: the DEM throughput benchmark (`host-sim bench dem`);
+//! - [`mod@bench`]: the DEM throughput benchmark (`host-sim bench dem`);
 //! - [`model`]: the reduced-order rig model (pump volume → reading), shared
 //!   by the workbench and the emulator;
 //! - [`effects`]: the library of physical effects the model can switch on;

@@ -5,7 +5,7 @@
 //! buoyancy, plane and cylinder walls; a Verlet neighbour list on a cell
 //! grid; velocity-Verlet integration; parallel with rayon and bit-for-bit
 //! deterministic whatever the thread count (every particle sums its forces
-//! in a fixed order, [`forces`]).
+//! in a fixed order, the `forces` module).
 //!
 //! The API follows rapier: all state is explicit and one call advances it,
 //! [`step`]`(&Params, &mut State, &mut impl Sink)`. Contact laws are one

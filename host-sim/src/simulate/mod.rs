@@ -2,8 +2,9 @@
 //!
 //! The expansion zone (D0 18.7 mm → 25 mm over 20 mm) in submerged,
 //! coarse-grained sand at a given depth: [`scenario`] builds the bed (skin,
-//! free head with its front face, box walls, the sand column),
-//! [`run`] settles it and inflates the zone by injected volume, [`output`]
+//! sliding head with its front face, box walls, the sand column),
+//! [`run`] settles it and inflates the zone by injected volume, the head
+//! drawn back as it swells ([`scenario::HeadSupport`]), [`output`]
 //! writes the samples (CSV), the pressures against D (SVG) and VTK frames.
 //!
 //! [`free_skin`] gives the zone's pressure with no sand, so a run reports

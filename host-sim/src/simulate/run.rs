@@ -50,8 +50,8 @@ fn support_n(bed: &Bed) -> f64 {
 
 /// Lets the grains settle for `spec.settle_s` round the zone holding its
 /// resting fluid volume, at the deposition modulus, then stiffens them to
-/// the sand's ([`stiffen`]) when that differs. A solid skin's mass is
-/// scaled to the DEM step meanwhile ([`ScenarioSpec::skin_mass_scaling`])
+/// the sand's (`stiffen`) when that differs. A solid skin's mass is
+/// scaled to the DEM step meanwhile ([`super::ScenarioSpec::skin_mass_scaling`])
 /// and given back at the end.
 pub fn settle(bed: &mut Bed, bar: &ProgressBar) -> Result<Settled> {
     let steps = (bed.spec.settle_s / bed.params.dt_s).ceil() as u64;

@@ -2,8 +2,8 @@
 //! from z = 0 to its length, centred at x = y = 0), coarse-grained sand
 //! round it in a box of the paper's 40 mm width, gravity along −y, the
 //! grains submerged; the rigid head ([`Ends::Head`]) closing the zone at
-//! z = L, free to slide along the axis, its front face ([`FrontFace`])
-//! against the sand ahead. By default the sand column reaches the surface
+//! z = L, sliding along the axis (drawn back as the zone swells,
+//! [`HeadSupport`]), its front face ([`FrontFace`]) against the sand ahead. By default the sand column reaches the surface
 //! (h above the axis); [`ScenarioSpec::with_surcharge`] swaps its top for
 //! a surcharge layer of heavy grains, cheaper but without the overburden's
 //! shear strength.

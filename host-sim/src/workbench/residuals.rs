@@ -142,7 +142,7 @@ fn flow_bucket(p: &Prediction) -> i64 {
 /// Standard deviation of the reading noise estimated from the residual's
 /// second differences within runs (median absolute value, robust to the
 /// few kinks of a piecewise smooth model): for white noise of σ,
-/// r[i+1] − 2r[i] + r[i−1] has standard deviation σ·√6.
+/// r\[i+1\] − 2r\[i\] + r\[i−1\] has standard deviation σ·√6.
 pub fn noise_floor_estimate(data: &Dataset, r: &[f64]) -> f64 {
     let mut d2 = Vec::new();
     for w in data.offsets.windows(2) {
