@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs every check of the project: formatting, lints, host tests of the
+# Runs every check of the project: formatting, lints, rustdoc, host tests of the
 # firmware logic and of host-sim, the firmware table's freshness, the
 # release firmware's size budget, and the controller self-tests on a
 # Cortex-M4 under QEMU. `.ci/run` calls exactly this.
@@ -19,6 +19,9 @@ step "lints: firmware logic (host), host-sim, QEMU runner"
 cargo clippy --target host-tuple --workspace --all-targets -- -D warnings
 step "lints: firmware for the board (thumbv7em, release)"
 cargo clippy --release -- -D warnings
+
+step "docs: rustdoc without warnings (firmware logic, host-sim)"
+RUSTDOCFLAGS="-D warnings" cargo doc --quiet --no-deps --target host-tuple --workspace
 
 step "host tests: firmware logic and host-sim"
 cargo test --target host-tuple --workspace 2>&1 | tee "$log"

@@ -444,7 +444,7 @@ fn read_header<'a>(c: &mut Cursor<'a>) -> Result<Header<'a>, ReplayError> {
 }
 
 /// Replays `bytes` through a fresh [`Controller`] (booted with
-/// [`Params::DEFAULT`] and `table`, as the emulator boots it) and checks
+/// [`urechis::controller::Params::DEFAULT`] and `table`, as the emulator boots it) and checks
 /// every decision and the telemetry digest.
 pub fn check(bytes: &[u8], table: Table<'_>) -> Result<Summary, ReplayError> {
     let mut c = Cursor { bytes, at: 0 };
