@@ -242,7 +242,7 @@ pub fn inflate(
     if let Some(head) = &mut bed.coupling.skin.head {
         head.origin_m = head.displacement_m;
     }
-    let head_draw = spec.head_draw(d0, bed.coupling.skin.spec.length_m);
+    let head_draw = spec.head_draw(d0, spec.zone_length_m());
     let mut samples: Vec<Sample> = Vec::new();
     on_frame(bed, 0)?;
     for frame in 1..=spec.frames {
