@@ -200,7 +200,7 @@ impl Report {
             } else {
                 String::new()
             };
-            let held = match self.spec.head {
+            let head = match self.spec.head {
                 scenario::HeadSupport::Held => {
                     ", the head then held through the expansion".to_string()
                 }
@@ -218,7 +218,7 @@ impl Report {
             };
             let _ = writeln!(
                 s,
-                "after the {:.2} mm advance{pause}{held} (the expansion's start): D {:.2} mm, p_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa",
+                "after the {:.2} mm advance{pause}{head} (the expansion's start): D {:.2} mm, p_i {:.3} kPa, p_e (contact) {:.3} kPa, p_h {:.3} kPa",
                 self.spec.advance_m * 1e3,
                 f.outer_diameter_m * 1e3,
                 f.internal_pressure_pa * 1e-3,
