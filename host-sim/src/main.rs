@@ -152,6 +152,33 @@ enum Command {
         #[arg(long)]
         quick: bool,
     },
+    /// The paper's balloon experiment reproduced: the zone inflated where
+    /// it lies at each depth, its skin matched to the balloon's own
+    /// pressure at h = 0, p_i and Δp_i against the measured table ± SD.
+    /// Writes balloon.csv, balloon.txt, balloon.svg and one hDEPTHmm
+    /// ensemble folder per depth.
+    Balloon {
+        /// Depths of the balloon's axis (mm), comma-separated; default the
+        /// experiment's.
+        #[arg(long = "depths-mm", value_delimiter = ',', default_values_t = host_sim::sand::regenerate::DEPTHS_MM)]
+        depths_mm: Vec<f64>,
+        /// Beds per depth (seeds 1, 2, …).
+        #[arg(long, default_value_t = host_sim::sand::regenerate::DEFAULT_SEEDS, value_parser = clap::value_parser!(u64).range(1..=1000))]
+        seeds: u64,
+        /// The balloon's own pressure at the injected volume (kPa), its
+        /// reading at h = 0; default the paper's measured 13.59.
+        #[arg(long = "free-pressure-kpa", default_value_t = host_sim::sand::BALLOON_FREE_PRESSURE_KPA)]
+        free_pressure_kpa: f64,
+        /// Grain radius of the coarse-grained sand (mm).
+        #[arg(long = "grain-radius-mm", default_value_t = host_sim::simulate::scenario::DEFAULT_GRAIN_RADIUS_M * 1e3)]
+        grain_radius_mm: f64,
+        /// The shorter solver case (`simulate --quick`).
+        #[arg(long)]
+        quick: bool,
+        /// Folder for the results.
+        #[arg(long, default_value = "out/balloon")]
+        out: PathBuf,
+    },
     /// Regenerate the stored FEM–DEM solver sand p_e(D, h) the tables use:
     /// runs `simulate` at each depth (default grain radius, no VTK), bins the
     /// sand's share of p_i over D and writes host-sim/data/sand/solver-pe.csv.
@@ -491,6 +518,27 @@ fn run(cli: Cli) -> Result<()> {
                     run.wall_s
                 );
             })?;
+            println!("wrote {}", out.display());
+        }
+        Command::Balloon {
+            depths_mm,
+            seeds,
+            free_pressure_kpa,
+            grain_radius_mm,
+            quick,
+            out,
+        } => {
+            use host_sim::simulate::balloon::{run, BalloonOptions};
+            let opts = BalloonOptions {
+                depths_m: depths_mm.iter().map(|h| h * 1e-3).collect(),
+                grain_radius_m: grain_radius_mm * 1e-3,
+                free_pressure_pa: free_pressure_kpa * 1e3,
+                quick,
+                out: Some(out.clone()),
+                progress: true,
+                ..BalloonOptions::paper(seeds)
+            };
+            print!("{}", run(&opts)?.text());
             println!("wrote {}", out.display());
         }
         Command::Bench {

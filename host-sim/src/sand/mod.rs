@@ -34,8 +34,8 @@ use serde::Serialize;
 
 pub use parametric::{
     calibrate_limit_coefficient, fit_rise, BalloonPoint, Calibration, ParametricSand, RiseFit,
-    SandParams, BALLOON_FINAL_DIAMETER_MM, BALLOON_TABLE, FRICTION_ANGLE_DEG,
-    RISE_DONE_DIAMETER_MM,
+    SandParams, BALLOON_FINAL_DIAMETER_MM, BALLOON_FREE_PRESSURE_KPA, BALLOON_FREE_SD_KPA,
+    BALLOON_TABLE, FRICTION_ANGLE_DEG, RISE_DONE_DIAMETER_MM,
 };
 pub use solver::{SolverSand, SolverSandError};
 

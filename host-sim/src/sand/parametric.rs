@@ -236,6 +236,25 @@ pub const BALLOON_TABLE: [BalloonPoint; 4] = [
     },
 ];
 
+/// The balloon's internal pressure at h = 0 (kPa, ± [`BALLOON_FREE_SD_KPA`]):
+/// its own skin's pressure at the 9.8 mL injected, what the experiment
+/// subtracts from each depth's (the piston force 9.10 N over 6.70 cm²;
+/// any seal friction of the syringe is in it and cancels in the
+/// differences).
+pub const BALLOON_FREE_PRESSURE_KPA: f64 = 13.59;
+
+/// Standard deviation of [`BALLOON_FREE_PRESSURE_KPA`] (kPa).
+pub const BALLOON_FREE_SD_KPA: f64 = 0.71;
+
+impl BalloonPoint {
+    /// The balloon's internal pressure at this depth (kPa; its SD is
+    /// [`BalloonPoint::sd_kpa`]): the h = 0 pressure plus p_e, the
+    /// experiment's table as measured (17.45 kPa at 40 mm).
+    pub fn internal_pressure_kpa(&self) -> f64 {
+        BALLOON_FREE_PRESSURE_KPA + self.external_pressure_kpa
+    }
+}
+
 /// Diameter at which the balloon values are taken to apply (mm): the
 /// animal's final expanded diameter.
 pub const BALLOON_FINAL_DIAMETER_MM: f64 = 25.0;

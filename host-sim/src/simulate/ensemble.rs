@@ -118,7 +118,19 @@ impl Ensemble {
     ) -> Result<Ensemble> {
         ensure!(!seeds.is_empty(), "an ensemble needs at least one seed");
         // The seed moves grains only: one free-skin curve serves every run.
-        let free = FreeCurve::of(spec)?;
+        Self::run_with(spec, &FreeCurve::of(spec)?, seeds, out, progress)
+    }
+
+    /// [`Ensemble::run`] with the zone's free curve `free` already computed
+    /// (it depends on the skin only, so one serves every depth too).
+    pub fn run_with(
+        spec: &ScenarioSpec,
+        free: &FreeCurve,
+        seeds: &[u64],
+        out: Option<&Path>,
+        progress: bool,
+    ) -> Result<Ensemble> {
+        ensure!(!seeds.is_empty(), "an ensemble needs at least one seed");
         let mut reports = Vec::with_capacity(seeds.len());
         for &seed in seeds {
             let opts = Options {

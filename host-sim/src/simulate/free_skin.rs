@@ -79,3 +79,45 @@ impl FreeCurve {
         Some(p0 + (p1 - p0) * (d_m - d0) / (d1 - d0))
     }
 }
+
+/// Largest relative miss of [`FreeCurve::matched`]'s free pressure at the
+/// final diameter; one rescale lands within about 0.1 % (the curve is
+/// sampled at fixed pressure steps, so p_free is only nearly ∝ scale).
+pub const MATCH_TOLERANCE: f64 = 2e-3;
+
+impl FreeCurve {
+    /// `spec` with its skin's stiffness scale
+    /// ([`ScenarioSpec::skin_stiffness_scale`]) set so that the zone with
+    /// no sand needs `free_pressure_pa` (Pa) at its final diameter, and
+    /// that skin's curve. This is how a balloon's measured pressure at
+    /// h = 0 (at the injected volume) sets its skin: every coefficient of
+    /// the Yeoh law is scaled, so at a given shape every stress and p_free
+    /// scale with it, and one rescale from the first curve lands within
+    /// [`MATCH_TOLERANCE`] (a second one is taken if it does not).
+    pub fn matched(
+        spec: &ScenarioSpec,
+        free_pressure_pa: f64,
+    ) -> Result<(ScenarioSpec, FreeCurve)> {
+        ensure!(
+            free_pressure_pa.is_finite() && free_pressure_pa > 0.0,
+            "the skin's free pressure to match must be > 0 Pa (got {free_pressure_pa})"
+        );
+        let mut spec = spec.clone();
+        let mut curve = FreeCurve::of(&spec)?;
+        for _ in 0..3 {
+            let p = curve.pressure_pa(spec.final_diameter_m).ok_or_else(|| {
+                anyhow::anyhow!("the free skin's curve does not reach the final diameter")
+            })?;
+            if (p / free_pressure_pa - 1.0).abs() <= MATCH_TOLERANCE {
+                return Ok((spec, curve));
+            }
+            spec.skin_stiffness_scale *= free_pressure_pa / p;
+            curve = FreeCurve::of(&spec)?;
+        }
+        anyhow::bail!(
+            "the skin's scale did not converge to a free pressure of {:.3} kPa at {:.2} mm",
+            free_pressure_pa * 1e-3,
+            spec.final_diameter_m * 1e3
+        )
+    }
+}

@@ -13,6 +13,7 @@
 //! calibration and the validation against the paper are in
 //! `host-sim/README-simulate.md`.
 
+pub mod balloon;
 pub mod ensemble;
 pub mod free_skin;
 pub mod output;
@@ -268,14 +269,43 @@ impl Report {
                 );
             }
         }
-        if let Some(b) = self.spec.balloon_point() {
+        let p_free = self.last().and_then(|l| {
+            Some((
+                l.outer_diameter_m,
+                self.free.pressure_pa(l.outer_diameter_m)?,
+            ))
+        });
+        if let Some((d, p)) = p_free {
             let _ = writeln!(
                 s,
-                "paper at h = {:.0} mm: p_e {:.2} ± {:.2} kPa (balloon experiment; compare Δp_i)",
-                b.depth_mm, b.external_pressure_kpa, b.sd_kpa
+                "the skin alone (no sand) needs {:.3} kPa at D = {:.2} mm (its law {:.2} × the default skin's)",
+                p * 1e-3,
+                d * 1e3,
+                self.spec.skin_stiffness_scale
             );
         }
-        if self.spec.tube == TubeGeometry::PAPER {
+        match (self.spec.balloon_point(), self.spec.balloon) {
+            (Some(b), true) => {
+                let _ = writeln!(
+                    s,
+                    "balloon experiment at h = {:.0} mm: p_i {:.2} ± {:.2} kPa, p_e {:.2} ± {:.2} kPa (compare p_i and Δp_i)",
+                    b.depth_mm,
+                    b.internal_pressure_kpa(),
+                    b.sd_kpa,
+                    b.external_pressure_kpa,
+                    b.sd_kpa
+                );
+            }
+            (Some(b), false) => {
+                let _ = writeln!(
+                    s,
+                    "paper at h = {:.0} mm: p_e {:.2} ± {:.2} kPa (balloon experiment; compare Δp_i; `host-sim balloon` reproduces the experiment)",
+                    b.depth_mm, b.external_pressure_kpa, b.sd_kpa
+                );
+            }
+            _ => {}
+        }
+        if self.spec.tube == TubeGeometry::PAPER && !self.spec.balloon {
             let _ = writeln!(
                 s,
                 "paper (4 cm): p_e 3.86 ± 1.24 kPa (experiment), p_i 4.06 kPa, p_h drop 97.7 %, max von Mises 0.042 MPa"

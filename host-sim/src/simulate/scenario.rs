@@ -281,6 +281,10 @@ pub struct ScenarioSpec {
     /// stiffened to `grain_modulus_pa` and relaxed for [`RELAX_S`]. Equal
     /// to it: one modulus throughout. Default [`DEPOSITION_MODULUS_PA`].
     pub deposition_modulus_pa: f64,
+    /// The run stands for the paper's balloon experiment
+    /// ([`ScenarioSpec::as_balloon`]), not a burrowing cycle: its summary
+    /// compares p_i and Δp_i with the balloon's measured pressures.
+    pub balloon: bool,
 }
 
 impl ScenarioSpec {
@@ -330,6 +334,7 @@ impl ScenarioSpec {
             head: HeadSupport::Drawn,
             grain_modulus_pa: GRAIN_MODULUS_PA,
             deposition_modulus_pa: DEPOSITION_MODULUS_PA,
+            balloon: false,
         }
         .with_solid(SOLID_LAYERS)
     }
@@ -466,6 +471,24 @@ impl ScenarioSpec {
             frames: 5,
             samples: 100,
             ..ScenarioSpec::paper(depth_m, grain_radius_m)
+        }
+    }
+
+    /// This case as the paper's balloon experiment instead of a burrowing
+    /// cycle: no advance (the balloon is buried, then inflated where it
+    /// lies) and both ends of the zone held (the bulge forms in a 30 cm
+    /// latex tube whose uninflated parts lie in the sand either side). The
+    /// sand, the box, the depth and the zone's 9.8 mL stay the case's; the
+    /// skin's stiffness is matched to the balloon's own pressure
+    /// separately ([`crate::simulate::balloon`]).
+    pub fn as_balloon(self) -> ScenarioSpec {
+        ScenarioSpec {
+            advance_m: 0.0,
+            advance_hold_s: 0.0,
+            head: HeadSupport::Held,
+            setup: format!("{}, as the balloon experiment", self.setup),
+            balloon: true,
+            ..self
         }
     }
 
