@@ -104,16 +104,7 @@ fn a_row_is_within_the_measured_sd_only_inside_it() {
 fn the_whole_comparison_runs_on_a_tiny_bed() {
     // Coarse grains under a surcharge, a short settling and expansion, the
     // membrane zone matched to twice its own free pressure.
-    let case = ScenarioSpec {
-        settle_s: 0.4,
-        expansion_s: 0.04,
-        frames: 1,
-        samples: 10,
-        ..ScenarioSpec::quick(40e-3, 2.5e-3)
-            .with_surcharge(20e-3, 2)
-            .with_membrane()
-            .as_balloon()
-    };
+    let case = tiny_balloon();
     let p0 = FreeCurve::of(&case)
         .unwrap()
         .pressure_pa(case.final_diameter_m)
@@ -153,4 +144,38 @@ fn the_whole_comparison_runs_on_a_tiny_bed() {
     };
     let err = run_cases(&[case, other], &[1], 2.0 * p0, None, false).unwrap_err();
     assert!(format!("{err:#}").contains("share one skin"), "{err:#}");
+}
+
+/// A tiny bed: coarse grains under a surcharge, a short settling and
+/// expansion, the membrane zone inflated as the balloon.
+fn tiny_balloon() -> ScenarioSpec {
+    ScenarioSpec {
+        settle_s: 0.4,
+        expansion_s: 0.04,
+        frames: 1,
+        samples: 10,
+        ..ScenarioSpec::quick(40e-3, 2.5e-3)
+            .with_surcharge(20e-3, 2)
+            .with_membrane()
+            .as_balloon()
+    }
+}
+
+#[test]
+fn a_stiffer_skin_takes_a_larger_share_from_the_same_bed() {
+    // The session-15 finding in small: the sand's share is not the sand's
+    // alone. The same seed's bed against the skin matched to its own
+    // free pressure and to four times it: 1.55 and 4.06 kPa when written.
+    let case = tiny_balloon();
+    let p0 = FreeCurve::of(&case)
+        .unwrap()
+        .pressure_pa(case.final_diameter_m)
+        .unwrap();
+    let share = |k: f64| {
+        let run = run_cases(std::slice::from_ref(&case), &[1], k * p0, None, false).unwrap();
+        run.rows[0].sand_share_kpa.0
+    };
+    let (soft, stiff) = (share(1.0), share(4.0));
+    assert!(soft > 0.0, "{soft}");
+    assert!(stiff > 1.5 * soft, "{soft} kPa soft, {stiff} kPa stiff");
 }

@@ -260,7 +260,12 @@ pub fn inflate(
             bar.set_position((1000.0 * done.clamp(0.0, 1.0)) as u64);
         })
         .with_context(|| format!("expanding to {:.2} mm", target * 1e3))?;
-        // Each chunk starts with the previous one's last state.
+        // Each chunk starts with the previous one's last state. `expand`
+        // draws the head to the largest D reached within its call; that
+        // carries across chunks because a chunk ends at its first step
+        // past a target above every earlier D, so its last D is the
+        // largest so far (a step moves D by nanometres, a frame by
+        // (d1 − d0) / frames).
         let skip = usize::from(!samples.is_empty());
         samples.extend(chunk.into_iter().skip(skip));
         on_frame(bed, frame)?;
