@@ -217,10 +217,10 @@ pub fn run_cases(
 
 /// The depth's row from its beds.
 fn row(ensemble: &Ensemble, spec: &ScenarioSpec) -> Row {
+    let metrics = ensemble.metrics();
     let metric = |name: &str| {
-        ensemble
-            .metrics()
-            .into_iter()
+        metrics
+            .iter()
             .find(|m| m.name == name)
             .map_or((f64::NAN, f64::NAN), |m| {
                 super::ensemble::mean_sd(&m.values)

@@ -230,6 +230,10 @@ impl Report {
         if let (Some(l), Some(m)) = (self.last(), self.final_means()) {
             let pull = match self.spec.head {
                 scenario::HeadSupport::Free => String::new(),
+                _ if self.spec.balloon => format!(
+                    " (the held front end taking {:.3} N, + pulling back)",
+                    m.head_pull_n
+                ),
                 _ => format!(
                     " (the body pulling the head back with {:.3} N)",
                     m.head_pull_n
