@@ -169,12 +169,22 @@ enum Command {
         /// reading at h = 0; default the paper's measured 13.59.
         #[arg(long = "free-pressure-kpa", default_value_t = host_sim::sand::BALLOON_FREE_PRESSURE_KPA)]
         free_pressure_kpa: f64,
-        /// Grain radius of the coarse-grained sand (mm).
-        #[arg(long = "grain-radius-mm", default_value_t = host_sim::simulate::scenario::DEFAULT_GRAIN_RADIUS_M * 1e3)]
-        grain_radius_mm: f64,
+        /// Grain radius of the coarse-grained sand (mm); default 1.5 mm, or
+        /// the rig's grains when coarser.
+        #[arg(long = "grain-radius-mm")]
+        grain_radius_mm: Option<f64>,
         /// The shorter solver case (`simulate --quick`).
         #[arg(long)]
         quick: bool,
+        /// Your balloon in your sand instead of the paper's: a rig.toml, or
+        /// an experiment folder holding one (its actuator, skin, sand, fluid
+        /// and box); the paper's measured table is then not beside it.
+        #[arg(long)]
+        rig: Option<PathBuf>,
+        /// With --rig: final outer diameter of the zone (mm); default the
+        /// paper's stretch 25/18.7 of the rig's initial diameter.
+        #[arg(long = "final-diameter-mm", requires = "rig")]
+        final_diameter_mm: Option<f64>,
         /// Folder for the results.
         #[arg(long, default_value = "out/balloon")]
         out: PathBuf,
@@ -526,18 +536,46 @@ fn run(cli: Cli) -> Result<()> {
             free_pressure_kpa,
             grain_radius_mm,
             quick,
+            rig,
+            final_diameter_mm,
             out,
         } => {
+            use host_sim::sand::regenerate::RigSetup;
             use host_sim::simulate::balloon::{run, BalloonOptions};
+            use host_sim::simulate::ScenarioSpec;
+            let rig = rig
+                .map(|p| {
+                    read_rig(&p).map(|(rig, file)| RigSetup {
+                        rig,
+                        file,
+                        final_diameter_mm,
+                    })
+                })
+                .transpose()?;
+            let r = grain_radius_mm.map_or_else(
+                || {
+                    rig.as_ref()
+                        .map_or(host_sim::simulate::scenario::DEFAULT_GRAIN_RADIUS_M, |s| {
+                            ScenarioSpec::grain_radius_for(&s.rig)
+                        })
+                },
+                |r| r * 1e-3,
+            );
             let opts = BalloonOptions {
                 depths_m: depths_mm.iter().map(|h| h * 1e-3).collect(),
-                grain_radius_m: grain_radius_mm * 1e-3,
+                grain_radius_m: r,
                 free_pressure_pa: free_pressure_kpa * 1e3,
                 quick,
+                rig,
                 out: Some(out.clone()),
                 progress: true,
                 ..BalloonOptions::paper(seeds)
             };
+            if let Some(&h) = opts.depths_m.first() {
+                for n in opts.spec(h)?.1 {
+                    eprintln!("note: {n}");
+                }
+            }
             print!("{}", run(&opts)?.text());
             println!("wrote {}", out.display());
         }

@@ -179,3 +179,53 @@ fn a_stiffer_skin_takes_a_larger_share_from_the_same_bed() {
     assert!(soft > 0.0, "{soft}");
     assert!(stiff > 1.5 * soft, "{soft} kPa soft, {stiff} kPa stiff");
 }
+
+#[test]
+fn a_rig_sets_the_balloons_sand_and_the_papers_rig_keeps_the_measured_table() {
+    use host_sim::experiment::Rig;
+    use host_sim::sand::regenerate::RigSetup;
+    use host_sim::simulate::balloon::BalloonOptions;
+    let with = |rig: Rig| BalloonOptions {
+        rig: Some(RigSetup {
+            rig,
+            file: "rig.toml".into(),
+            final_diameter_mm: None,
+        }),
+        ..BalloonOptions::paper(1)
+    };
+    // The paper's set-up given as a rig: the paper's balloon case (but for
+    // the provenance and the float of 18.7 × 25/18.7), the table beside it.
+    let paper = Rig {
+        skin: None,
+        ..Rig::paper_default()
+    };
+    let (spec, notes) = with(paper.clone()).spec(50e-3).unwrap();
+    let (plain, none) = BalloonOptions::paper(1).spec(50e-3).unwrap();
+    assert!(none.is_empty());
+    assert!(notes.iter().any(|n| n.contains("no [skin]")), "{notes:?}");
+    assert_eq!(
+        ScenarioSpec {
+            setup: plain.setup.clone(),
+            final_diameter_m: plain.final_diameter_m,
+            ..spec.clone()
+        },
+        plain
+    );
+    assert!(spec.balloon && spec.head == HeadSupport::Held && spec.advance_m == 0.0);
+    assert_eq!(spec.balloon_point(), Some(BALLOON_TABLE[1]));
+    // A lighter sand: the user's own balloon, nothing measured beside it.
+    let mut light = paper;
+    if let Some(s) = &mut light.sand {
+        s.grain_density_kg_m3 = 2650.0;
+    }
+    let (spec, _) = with(light).spec(50e-3).unwrap();
+    assert_eq!(spec.grain_density_kg_m3, 2650.0);
+    assert!(spec.balloon && spec.balloon_point().is_none());
+    // A rig without sand cannot be a balloon in sand.
+    let sandless = Rig {
+        sand: None,
+        ..Rig::paper_default()
+    };
+    let err = with(sandless).spec(50e-3).unwrap_err();
+    assert!(format!("{err:#}").contains("[sand]"), "{err:#}");
+}

@@ -32,6 +32,7 @@ use plotters::prelude::*;
 
 use super::ensemble::Ensemble;
 use super::{output, FreeCurve, ScenarioSpec};
+use crate::sand::regenerate::RigSetup;
 use crate::sand::{BalloonPoint, BALLOON_FREE_PRESSURE_KPA, BALLOON_FREE_SD_KPA, BALLOON_TABLE};
 
 /// What to run.
@@ -48,6 +49,10 @@ pub struct BalloonOptions {
     pub free_pressure_pa: f64,
     /// The shorter case ([`ScenarioSpec::quick`]).
     pub quick: bool,
+    /// A user's set-up (actuator, skin, sand, water, box) instead of the
+    /// paper's ([`ScenarioSpec::with_rig`]); its rows are predictions with
+    /// nothing measured beside them unless it is the paper's set-up.
+    pub rig: Option<RigSetup>,
     /// Folder for the results (one `hDEPTHmm` ensemble folder per depth
     /// and the comparison); `None`: write nothing.
     pub out: Option<PathBuf>,
@@ -65,19 +70,30 @@ impl BalloonOptions {
             grain_radius_m: super::scenario::DEFAULT_GRAIN_RADIUS_M,
             free_pressure_pa: BALLOON_FREE_PRESSURE_KPA * 1e3,
             quick: false,
+            rig: None,
             out: None,
             progress: false,
         }
     }
 
-    /// The case at depth `depth_m` (m), the skin not yet matched.
-    pub fn spec(&self, depth_m: f64) -> ScenarioSpec {
-        let spec = if self.quick {
+    /// The case at depth `depth_m` (m), the skin not yet matched, with
+    /// the notes on what a rig says that the solver does not take as
+    /// given ([`ScenarioSpec::with_rig`]).
+    pub fn spec(&self, depth_m: f64) -> Result<(ScenarioSpec, Vec<String>)> {
+        let base = if self.quick {
             ScenarioSpec::quick(depth_m, self.grain_radius_m)
         } else {
             ScenarioSpec::paper(depth_m, self.grain_radius_m)
         };
-        spec.as_balloon()
+        let (spec, notes) = match &self.rig {
+            Some(setup) => base.with_rig(
+                &setup.rig,
+                &setup.file,
+                setup.final_diameter_mm.map(|d| d * 1e-3),
+            )?,
+            None => (base, Vec::new()),
+        };
+        Ok((spec.as_balloon(), notes))
     }
 }
 
@@ -137,7 +153,11 @@ pub struct BalloonRun {
 /// `out/hDEPTHmm` and the comparison (`balloon.csv`, `balloon.txt`,
 /// `balloon.svg`) under `out`.
 pub fn run(opts: &BalloonOptions) -> Result<BalloonRun> {
-    let cases: Vec<ScenarioSpec> = opts.depths_m.iter().map(|&h| opts.spec(h)).collect();
+    let cases = opts
+        .depths_m
+        .iter()
+        .map(|&h| Ok(opts.spec(h)?.0))
+        .collect::<Result<Vec<ScenarioSpec>>>()?;
     run_cases(
         &cases,
         &opts.seeds,
@@ -294,14 +314,19 @@ impl BalloonRun {
     pub fn text(&self) -> String {
         let mut s = String::new();
         let beds = self.ensembles.first().map_or(0, |e| e.reports.len());
+        let paper = if self.rows.iter().any(|r| r.measured.is_some()) {
+            format!(
+                " (the paper's balloon read {BALLOON_FREE_PRESSURE_KPA:.2} ± {BALLOON_FREE_SD_KPA:.2} kPa at h = 0)"
+            )
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             s,
-            "balloon experiment reproduced: skin {:.2} × the default skin's law, matched to {:.3} kPa with no sand at D = {:.2} mm (measured at h = 0: {:.2} ± {:.2} kPa); {beds} bed{} per depth, means ± SD over the beds",
+            "balloon experiment reproduced: the skin law's coefficients × {:.2}, matched to {:.3} kPa with no sand at D = {:.2} mm{paper}; {beds} bed{} per depth, means ± SD over the beds",
             self.skin_stiffness_scale,
             self.free_pressure_pa * 1e-3,
             self.final_diameter_m * 1e3,
-            BALLOON_FREE_PRESSURE_KPA,
-            BALLOON_FREE_SD_KPA,
             if beds == 1 { "" } else { "s" },
         );
         let _ = writeln!(
@@ -371,7 +396,7 @@ impl BalloonRun {
             let mut chart = ChartBuilder::on(&root)
                 .caption(
                     format!(
-                        "balloon experiment: measured and simulated (skin {:.2} × default)",
+                        "balloon experiment: measured and simulated (skin law × {:.2})",
                         self.skin_stiffness_scale
                     ),
                     ("sans-serif", 20),

@@ -282,7 +282,7 @@ impl Report {
         if let Some((d, p)) = p_free {
             let _ = writeln!(
                 s,
-                "the skin alone (no sand) needs {:.3} kPa at D = {:.2} mm (its law {:.2} × the default skin's)",
+                "the skin alone (no sand) needs {:.3} kPa at D = {:.2} mm (its law's coefficients × {:.2}: the project's default skin, or the rig's)",
                 p * 1e-3,
                 d * 1e3,
                 self.spec.skin_stiffness_scale
