@@ -21,8 +21,9 @@
 //! measured rows ± SD.
 //!
 //! Not the balloon's geometry: it starts 6.1 mm across in a 30 cm tube,
-//! the zone 18.7 mm in a 20 mm clamped length. A narrower start changes the
-//! sand's share little (a 12 mm zone: −8 %, README-simulate).
+//! the zone 18.7 mm in a 20 mm clamped length. The shape matters: a zone
+//! of the same length from 12 mm (rounder, less volume) reads a third less
+//! at 40 mm (README-simulate, "How much hangs on…").
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
