@@ -341,6 +341,36 @@ fn read_rig(path: &std::path::Path) -> Result<(host_sim::experiment::Rig, String
     Ok((rig, file.display().to_string()))
 }
 
+/// The rig at `path` (a rig.toml or an experiment folder) with the zone's
+/// final diameter, for the commands that run the solver at several depths.
+fn read_rig_setup(
+    path: Option<PathBuf>,
+    final_diameter_mm: Option<f64>,
+) -> Result<Option<host_sim::sand::regenerate::RigSetup>> {
+    path.map(|p| {
+        read_rig(&p).map(|(rig, file)| host_sim::sand::regenerate::RigSetup {
+            rig,
+            file,
+            final_diameter_mm,
+        })
+    })
+    .transpose()
+}
+
+/// The solver's grain radius (m): `given_mm` if given, else the rig's
+/// grains when coarser than the default, else the default.
+fn grain_radius_m(given_mm: Option<f64>, rig: Option<&host_sim::experiment::Rig>) -> f64 {
+    given_mm.map_or_else(
+        || {
+            rig.map_or(
+                host_sim::simulate::scenario::DEFAULT_GRAIN_RADIUS_M,
+                host_sim::simulate::ScenarioSpec::grain_radius_for,
+            )
+        },
+        |r| r * 1e-3,
+    )
+}
+
 fn default_repo_root() -> PathBuf {
     host_sim::repo_root()
 }
@@ -421,15 +451,7 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             use host_sim::simulate::{simulate, Options, ScenarioSpec};
             let rig = rig.map(|p| read_rig(&p)).transpose()?;
-            let r = grain_radius_mm.map_or_else(
-                || {
-                    rig.as_ref().map_or(
-                        host_sim::simulate::scenario::DEFAULT_GRAIN_RADIUS_M,
-                        |(rig, _)| ScenarioSpec::grain_radius_for(rig),
-                    )
-                },
-                |r| r * 1e-3,
-            );
+            let r = grain_radius_m(grain_radius_mm, rig.as_ref().map(|(rig, _)| rig));
             let h = depth_mm * 1e-3;
             let mut spec = if quick {
                 ScenarioSpec::quick(h, r)
@@ -495,18 +517,10 @@ fn run(cli: Cli) -> Result<()> {
             seeds,
             runs_out,
         } => {
-            use host_sim::sand::regenerate::{regenerate, RegenerateOptions, RigSetup};
+            use host_sim::sand::regenerate::{regenerate, RegenerateOptions};
             let out =
                 out.unwrap_or_else(|| default_repo_root().join(host_sim::sand::solver::DATA_PATH));
-            let rig = rig
-                .map(|p| {
-                    read_rig(&p).map(|(rig, file)| RigSetup {
-                        rig,
-                        file,
-                        final_diameter_mm,
-                    })
-                })
-                .transpose()?;
+            let rig = read_rig_setup(rig, final_diameter_mm)?;
             let opts = RegenerateOptions {
                 depths_mm,
                 quick,
@@ -540,27 +554,9 @@ fn run(cli: Cli) -> Result<()> {
             final_diameter_mm,
             out,
         } => {
-            use host_sim::sand::regenerate::RigSetup;
             use host_sim::simulate::balloon::{run, BalloonOptions};
-            use host_sim::simulate::ScenarioSpec;
-            let rig = rig
-                .map(|p| {
-                    read_rig(&p).map(|(rig, file)| RigSetup {
-                        rig,
-                        file,
-                        final_diameter_mm,
-                    })
-                })
-                .transpose()?;
-            let r = grain_radius_mm.map_or_else(
-                || {
-                    rig.as_ref()
-                        .map_or(host_sim::simulate::scenario::DEFAULT_GRAIN_RADIUS_M, |s| {
-                            ScenarioSpec::grain_radius_for(&s.rig)
-                        })
-                },
-                |r| r * 1e-3,
-            );
+            let rig = read_rig_setup(rig, final_diameter_mm)?;
+            let r = grain_radius_m(grain_radius_mm, rig.as_ref().map(|s| &s.rig));
             let opts = BalloonOptions {
                 depths_m: depths_mm.iter().map(|h| h * 1e-3).collect(),
                 grain_radius_m: r,
