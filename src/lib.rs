@@ -14,7 +14,10 @@
 //! - [`drivers`]: the pressure sensor and the stepper syringe pump, generic
 //!   over `embedded-hal` traits;
 //! - [`protocol`]: framed, checksummed commands and telemetry over the
-//!   virtual COM port.
+//!   virtual COM port;
+//! - [`replay`]: the format of recorded emulator runs and the checker that
+//!   replays them through the controller (host-sim records, the QEMU build
+//!   and the host check).
 //!
 //! The embassy glue lives in `board` (only built for the STM32 target).
 #![cfg_attr(not(test), no_std)]
@@ -24,6 +27,7 @@
 pub mod controller;
 pub mod drivers;
 pub mod protocol;
+pub mod replay;
 pub mod selftest;
 pub mod table;
 

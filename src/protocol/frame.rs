@@ -1,17 +1,19 @@
 //! Framing: postcard payload + CRC-16, COBS-encoded, 0x00-terminated. Encoding
 //! into a caller's buffer and a streaming, bounded decoder that resynchronises
 //! at the next delimiter after any damage.
+//!
+//! Generic over the serde message type: this layer knows nothing of the
+//! protocol's messages (the typed encoders and decoders are in `codec`).
 
 use core::marker::PhantomData;
 
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use super::message::{DeviceMessage, HostMessage};
-
 /// Largest postcard payload of any message (bytes). Kept below 252 so that
 /// payload plus CRC is a single COBS block (exactly one byte of overhead).
-/// A compile-time check in this module keeps every message below it.
+/// A compile-time check next to the typed encoders keeps every protocol
+/// message below it.
 pub const MAX_PAYLOAD: usize = 240;
 
 /// Length of the CRC appended to the payload (bytes).
@@ -22,18 +24,9 @@ pub const CRC_LEN: usize = 2;
 pub const MAX_ENCODED: usize = cobs::max_encoding_length(MAX_PAYLOAD + CRC_LEN);
 
 /// Longest frame on the wire, delimiter included (bytes): a buffer this large
-/// always suffices for [`encode_device`] and [`encode_host`].
+/// always suffices for [`encode`] of a message whose payload fits
+/// [`MAX_PAYLOAD`], as every protocol message's does.
 pub const MAX_FRAME: usize = MAX_ENCODED + 1;
-
-// Postcard never needs more than 1.5× a message's in-memory size for types
-// built from numbers, bools, options and enums (u16 → 3 bytes, u32 → 5, f32 →
-// 4, tags 1); the 8 bytes cover zero-sized parts. Growing `Params` or
-// `Telemetry` past the buffer breaks the build here, not the link.
-const _: () = assert!(
-    core::mem::size_of::<DeviceMessage>() * 3 / 2 + 8 <= MAX_PAYLOAD
-        && core::mem::size_of::<HostMessage>() * 3 / 2 + 8 <= MAX_PAYLOAD,
-    "a protocol message may not fit MAX_PAYLOAD"
-);
 
 /// Frame delimiter; COBS guarantees it never occurs inside a frame.
 pub const DELIMITER: u8 = 0x00;
@@ -43,8 +36,8 @@ pub const DELIMITER: u8 = 0x00;
 /// Sent most significant byte first after the payload.
 pub const CRC: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740);
 
-/// Why a message could not be encoded. Never happens for the messages of this
-/// module with a [`MAX_FRAME`]-byte buffer.
+/// Why a message could not be encoded. Never happens for the protocol's
+/// messages with a [`MAX_FRAME`]-byte buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ProtocolError {
@@ -72,19 +65,6 @@ pub enum FrameError {
     Decode,
     /// A whole message was read but payload bytes are left over.
     TrailingBytes,
-}
-
-/// Encodes a device message into `out` as one frame, delimiter included.
-pub fn encode_device<'a>(
-    msg: &DeviceMessage,
-    out: &'a mut [u8],
-) -> Result<&'a [u8], ProtocolError> {
-    encode(msg, out)
-}
-
-/// Encodes a host message into `out` as one frame, delimiter included.
-pub fn encode_host<'a>(msg: &HostMessage, out: &'a mut [u8]) -> Result<&'a [u8], ProtocolError> {
-    encode(msg, out)
 }
 
 /// Encodes any serde message into `out` as one frame: COBS(postcard(msg) ‖
@@ -143,12 +123,6 @@ pub struct FrameDecoder<T, const N: usize = MAX_ENCODED> {
     overflowed: bool,
     _msg: PhantomData<fn() -> T>,
 }
-
-/// Device-side decoder of host messages.
-pub type HostDecoder = FrameDecoder<HostMessage>;
-
-/// Host-side decoder of device messages.
-pub type DeviceDecoder = FrameDecoder<DeviceMessage>;
 
 impl<T: DeserializeOwned, const N: usize> FrameDecoder<T, N> {
     /// An empty decoder.

@@ -152,8 +152,13 @@
 //! (`seeds/` holds the example frames above; add `-- -max_total_time=60` for
 //! a bounded run.)
 
+// Layers, each using only those above it: `frame` (generic COBS + CRC
+// framing, `FrameError`), `message` (the message types, which carry a
+// `FrameError` in `NackReason`), `codec` (the typed encoders and decoders).
+mod codec;
 mod frame;
 mod message;
 
+pub use codec::*;
 pub use frame::*;
 pub use message::*;

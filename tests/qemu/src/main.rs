@@ -3,7 +3,7 @@
 //! replays every recorded emulator run
 //! ([`urechis_qemu_tests::replay_data::RECORDINGS`]) through the same
 //! controller and checks each step's decision against the host's
-//! ([`urechis_qemu_tests::replay::check`]). Prints one `name ... ok` /
+//! ([`urechis::replay::check`]). Prints one `name ... ok` /
 //! `name ... FAILED: why` line per scenario and recording and a closing
 //! `N passed, N failed` line through semihosting, and exits with the
 //! semihosting exit code (0 only when everything passed).
@@ -19,9 +19,9 @@ mod qemu {
 
     use cortex_m_rt::entry;
     use cortex_m_semihosting::{debug, hprint, hprintln};
+    use urechis::replay;
     use urechis::selftest::SCENARIOS;
     use urechis::table::generated::TABLE;
-    use urechis_qemu_tests::replay;
     use urechis_qemu_tests::replay_data::RECORDINGS;
 
     /// Scenarios finished so far, kept where the panic handler can read them.

@@ -1,0 +1,969 @@
+//! Force evaluation, particle by particle in a fixed order: body force,
+//! then each listed pair in ascending pair order (the pairs where it is the
+//! second particle come first: their first particle is lower), then its
+//! wall contacts. The particles are split into blocks of consecutive
+//! indices (one per worker, sized by the work they took before); a block's
+//! pairs are evaluated and summed by one task as it goes, four touching
+//! pairs at a time (SIMD), and only the pairs that straddle two blocks are
+//! evaluated first and stored. Each particle so sums the same terms in the
+//! same order whatever the blocks, and the results do not depend on the
+//! thread count.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use super::contact::{
+    ContactForce, ContactGeometry, ContactModel, History, Lanes, Real, HISTORY_LEN, LANE_COUNT,
+};
+use super::neighbour::NeighbourList;
+use super::particles::{Packed, Particles, Sphere};
+use super::walls::{Wall, WallShape};
+use super::{split_lengths, Params};
+
+/// Pairs gathered and evaluated together (sized for the L1 cache).
+const PAIR_CHUNK: usize = 256;
+/// Particles per parallel task in the wall pass (also fixes the order of
+/// the wall-force partial sums, so totals do not depend on the thread count).
+const GATHER_CHUNK: usize = 512;
+/// Blocks per worker: one, so that as few pairs as possible straddle two
+/// blocks (they are evaluated in a pass of their own); the measured times
+/// even out what the work estimate misses ([`Blocks::split`]).
+const BLOCKS_PER_WORKER: usize = 1;
+/// Cost of a touching pair in the pass, in listed pairs apart (measured:
+/// ≈ 25 ns against ≈ 5 ns); only the first split of a run relies on it.
+const TOUCHING_WEIGHT: f64 = 5.0;
+
+/// Whether the spheres i and j overlap.
+#[inline(always)]
+fn overlapping(p: &[Sphere], i: usize, j: usize) -> bool {
+    p[i].overlaps(&p[j])
+}
+
+/// Geometry of the overlapping pairs (i[l], j[l]), one per lane.
+#[inline(always)]
+fn pair_geometry_lanes(
+    p: &Packed,
+    i: &[usize; LANE_COUNT],
+    j: &[usize; LANE_COUNT],
+) -> ContactGeometry<Lanes> {
+    let row = |k: &[usize; LANE_COUNT]| {
+        (
+            k.map(|k| &p.sphere[k].0),
+            k.map(|k| &p.motion[k].0[0]),
+            k.map(|k| &p.motion[k].0[1]),
+        )
+    };
+    let ((xi, vi, wi), (xj, vj, wj)) = (row(i), row(j));
+    let vec = |q: &[&[f64; 4]; LANE_COUNT]| {
+        Vector3::new(
+            Lanes(q.map(|q| q[0])),
+            Lanes(q.map(|q| q[1])),
+            Lanes(q.map(|q| q[2])),
+        )
+    };
+    let fourth = |q: &[&[f64; 4]; LANE_COUNT]| Lanes(q.map(|q| q[3]));
+    ContactGeometry::spheres(
+        [&vec(&xi), &vec(&xj)],
+        [&vec(&vi), &vec(&vj)],
+        [&vec(&wi), &vec(&wj)],
+        [fourth(&xi), fourth(&xj)],
+        [fourth(&vi), fourth(&vj)],
+    )
+}
+
+/// The pairs of one block (slot s is pair `first + s` of the list), with
+/// their histories and open flags (1 while the history holds a contact).
+struct PairRun<'a> {
+    pi: &'a [u32],
+    pj: &'a [u32],
+    history: &'a mut [History],
+    open: &'a mut [u8],
+}
+
+impl<'a> PairRun<'a> {
+    /// The pairs `ks` of the list `pi`, `pj`, with their `history` and
+    /// `open` flags (already cut to `ks`).
+    fn of(
+        pi: &'a [u32],
+        pj: &'a [u32],
+        ks: std::ops::Range<usize>,
+        history: &'a mut [History],
+        open: &'a mut [u8],
+    ) -> Self {
+        PairRun {
+            pi: &pi[ks.clone()],
+            pj: &pj[ks],
+            history,
+            open,
+        }
+    }
+
+    /// Positions in `slots` of the overlapping pairs into `touching`,
+    /// returning how many; pairs apart are marked closed. No branch on the
+    /// outcome: which pairs touch is a coin toss to the branch predictor.
+    #[inline(always)]
+    fn sort_out(&mut self, p: &[Sphere], slots: &[u32], touching: &mut [u32; PAIR_CHUNK]) -> usize {
+        let mut count = 0;
+        for (n, &s) in slots.iter().enumerate() {
+            let s = s as usize;
+            let on = overlapping(p, self.pi[s] as usize, self.pj[s] as usize);
+            touching[count] = n as u32;
+            count += usize::from(on);
+            self.open[s] &= u8::from(on);
+        }
+        count
+    }
+
+    /// Evaluates the overlapping pairs `slots[w]` for w in `which`, four at
+    /// a time, calling `put(force)` for each in order; a closed pair's
+    /// history starts from zero. The last batch repeats its last pair (the
+    /// same history in, the same values out).
+    #[inline(always)]
+    fn evaluate(
+        &mut self,
+        p: &Packed,
+        model: &ContactModel,
+        dt_s: f64,
+        slots: &[u32],
+        which: &[u32],
+        mut put: impl FnMut(ContactForce),
+    ) {
+        let zero = Lanes::splat(0.0);
+        let last = which.len().saturating_sub(1);
+        for first in (0..which.len()).step_by(LANE_COUNT) {
+            let batch: [usize; LANE_COUNT] =
+                std::array::from_fn(|l| slots[which[(first + l).min(last)] as usize] as usize);
+            let i = batch.map(|s| self.pi[s] as usize);
+            let j = batch.map(|s| self.pj[s] as usize);
+            let g = pair_geometry_lanes(p, &i, &j);
+            // Plain loops: the `array::from_fn` form was left out of line
+            // (a call per history component, outside the AVX2 copy).
+            let mut h = [zero; HISTORY_LEN];
+            for (l, &s) in batch.iter().enumerate() {
+                let (stored, open) = (&self.history[s], self.open[s] != 0);
+                for (h, &v) in h.iter_mut().zip(stored) {
+                    h.0[l] = if open { v } else { 0.0 };
+                }
+            }
+            let f = model.evaluate(&g, dt_s, &mut h);
+            for (l, &s) in batch.iter().enumerate().take(which.len() - first) {
+                self.history[s] = h.map(|c| c.0[l]);
+                self.open[s] = 1;
+                put(f.lane(l));
+            }
+        }
+    }
+}
+
+/// The split of the particles into blocks for one list build, and the
+/// pairs that straddle two blocks.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Blocks {
+    /// The list build and block count this split was made for.
+    made_for: (u64, usize),
+    /// Block b holds particles `first[b]..first[b + 1]`.
+    first: Vec<usize>,
+    /// Estimated work of each block at the split (listed pairs, touching
+    /// ones weighted, scaled by the last split's measured cost rates).
+    work: Vec<f64>,
+    /// Wall time each block's task took since the split (ns).
+    spent_ns: Vec<u64>,
+    /// Each particle's cost per unit of estimated work, as learnt from the
+    /// blocks' times (1 until timed).
+    rate: Vec<f64>,
+    /// Pairs whose second particle lies in a later block, ascending.
+    cross: Vec<u32>,
+    /// Their forces at the last evaluation (zero when apart).
+    cross_force: Vec<ContactForce>,
+    /// `incoming[incoming_start[b]..incoming_start[b + 1]]`: positions in
+    /// `cross` of the pairs whose second particle lies in block b, ascending.
+    incoming_start: Vec<usize>,
+    incoming: Vec<u32>,
+}
+
+impl Blocks {
+    /// Splits the particles of `list` into `count` blocks of about equal
+    /// work, unless already split so for this build. A particle's work is
+    /// its listed pairs, touching ones weighted by [`TOUCHING_WEIGHT`],
+    /// times its learnt rate: at each split the rates of a block's
+    /// particles are scaled by the square root of how long the block took
+    /// since the last split against its estimate (relative to the mean), so
+    /// a block that ran long gives up particles until the times agree.
+    /// Timing only moves the split, and the forces do not depend on it: the
+    /// results stay the same bits.
+    fn split(&mut self, list: &NeighbourList, count: usize) {
+        let n = list.start.len().saturating_sub(1);
+        let count = count.clamp(1, n.max(1));
+        if self.made_for == (list.builds, count) && self.first.len() == count + 1 {
+            return;
+        }
+        match self.measured_rates(n) {
+            Some((ends, ratio)) => {
+                let mut b = 0;
+                for (i, rate) in self.rate.iter_mut().enumerate() {
+                    while i >= ends[b] {
+                        b += 1;
+                    }
+                    // Half the correction (in logs) per split: the times
+                    // are noisy, and a full step overshoots.
+                    *rate = (*rate * ratio[b].sqrt()).clamp(0.25, 4.0);
+                }
+            }
+            None if self.rate.len() != n => self.rate = vec![1.0; n],
+            None => {}
+        }
+        self.made_for = (list.builds, count);
+        let mut work = Vec::with_capacity(n + 1);
+        work.push(0.0f64);
+        let mut total = 0.0f64;
+        for (i, &rate) in self.rate.iter().enumerate() {
+            let ks = list.start[i] as usize..list.start[i + 1] as usize;
+            let open: usize = list.open[ks.clone()].iter().map(|&o| usize::from(o)).sum();
+            total += rate * (ks.len() as f64 + (TOUCHING_WEIGHT - 1.0) * open as f64);
+            work.push(total);
+        }
+        self.first.clear();
+        self.first.push(0);
+        for b in 1..count {
+            let target = total * b as f64 / count as f64;
+            let at = work[..n].partition_point(|&w| w < target);
+            let prev = self.first.last().copied().unwrap_or(0);
+            self.first.push(at.max(prev));
+        }
+        self.first.push(n);
+        self.work = (0..count)
+            .map(|b| work[self.first[b + 1]] - work[self.first[b]])
+            .collect();
+        self.spent_ns.clear();
+        self.spent_ns.resize(count, 0);
+        let mut block = vec![0u32; n];
+        for b in 0..count {
+            block[self.first[b]..self.first[b + 1]].fill(b as u32);
+        }
+        self.cross.clear();
+        self.incoming_start.clear();
+        self.incoming_start.resize(count + 1, 0);
+        for (k, (&i, &j)) in list.pair_i.iter().zip(&list.pair_j).enumerate() {
+            let bj = block[j as usize];
+            if bj != block[i as usize] {
+                self.cross.push(k as u32);
+                self.incoming_start[bj as usize + 1] += 1;
+            }
+        }
+        for b in 0..count {
+            self.incoming_start[b + 1] += self.incoming_start[b];
+        }
+        let mut fill = self.incoming_start[..count].to_vec();
+        self.incoming.clear();
+        self.incoming.resize(self.cross.len(), 0);
+        for (c, &k) in self.cross.iter().enumerate() {
+            let slot = &mut fill[block[list.pair_j[k as usize] as usize] as usize];
+            self.incoming[*slot] = c as u32;
+            *slot += 1;
+        }
+        self.cross_force.clear();
+        self.cross_force
+            .resize(self.cross.len(), ContactForce::default());
+    }
+
+    /// Number of blocks.
+    fn count(&self) -> usize {
+        self.first.len() - 1
+    }
+
+    /// The last split's block ends and each block's time per unit of
+    /// estimated work relative to the mean, if it was for `n` particles,
+    /// had more than one block and was timed.
+    fn measured_rates(&self, n: usize) -> Option<(Vec<usize>, Vec<f64>)> {
+        let count = self.work.len();
+        if count < 2
+            || self.first.len() != count + 1
+            || self.first[count] != n
+            || self.rate.len() != n
+        {
+            return None;
+        }
+        let spent: u64 = self.spent_ns.iter().sum();
+        let work: f64 = self.work.iter().sum();
+        if spent == 0 || work <= 0.0 || self.work.iter().any(|&w| w <= 0.0) {
+            return None;
+        }
+        let mean = spent as f64 / work;
+        let rates = (self.spent_ns.iter().zip(&self.work))
+            .map(|(&t, &w)| t as f64 / w / mean)
+            .collect();
+        Some((self.first[1..].to_vec(), rates))
+    }
+}
+
+/// Adds contact `cf` (from the first particle's point of view) to a
+/// particle of radius `r_m`, the pair's first or (`second`) its second.
+#[inline(always)]
+fn add_contact(
+    f: &mut Vector3<f64>,
+    t: &mut Vector3<f64>,
+    cf: &ContactForce,
+    r_m: f64,
+    second: bool,
+) {
+    if second {
+        *f -= cf.force_n;
+        *t += cf.torque_per_radius_n * r_m - cf.rolling_torque_n_m;
+    } else {
+        *f += cf.force_n;
+        *t += cf.torque_per_radius_n * r_m + cf.rolling_torque_n_m;
+    }
+}
+
+/// The vector instructions the pair pass runs with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Simd {
+    /// What every x86-64 (or other) machine has: SSE2, two lanes per
+    /// instruction.
+    Baseline,
+    /// AVX2 (x86-64, detected at run time): four lanes per instruction.
+    Avx2,
+}
+
+/// The pair pass's instruction set: 0 = not chosen yet, else `Simd as u8 + 1`.
+static SIMD: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(0);
+
+/// The instruction set the pair pass and the solid skin's element loop
+/// use: AVX2 where the CPU has it (detected once), unless the environment
+/// variable `URECHIS_DEM_SIMD=baseline` or [`use_simd`] asks for the
+/// baseline. Either gives the same bits.
+pub fn simd() -> Simd {
+    use std::sync::atomic::Ordering::Relaxed;
+    match SIMD.load(Relaxed) {
+        1 => Simd::Baseline,
+        2 => Simd::Avx2,
+        _ => {
+            let level = if std::env::var("URECHIS_DEM_SIMD").is_ok_and(|v| v == "baseline") {
+                Simd::Baseline
+            } else {
+                best_simd()
+            };
+            SIMD.store(level as u8 + 1, Relaxed);
+            level
+        }
+    }
+}
+
+/// The best instruction set this CPU offers the pair pass.
+pub fn best_simd() -> Simd {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        return Simd::Avx2;
+    }
+    Simd::Baseline
+}
+
+/// Makes the pair pass use `level` from now on, process-wide (benchmarks
+/// compare the two; results are the same bits). A level the CPU lacks is
+/// refused: the best one is used and returned instead.
+pub fn use_simd(level: Simd) -> Simd {
+    let level = if level == Simd::Avx2 {
+        best_simd()
+    } else {
+        level
+    };
+    SIMD.store(level as u8 + 1, std::sync::atomic::Ordering::Relaxed);
+    level
+}
+
+/// What every block's task reads.
+struct Inputs<'a> {
+    p: &'a Particles,
+    packed: &'a Packed,
+    model: &'a ContactModel,
+    dt_s: f64,
+    body_accel: Vector3<f64>,
+    pj: &'a [u32],
+    cross: &'a [u32],
+    cross_force: &'a [ContactForce],
+}
+
+/// Runs `$call` on `$run` in its AVX2 copy when `$simd` says so (the
+/// method's body is inlined into a function compiled for AVX2), else in
+/// the baseline one.
+macro_rules! dispatch {
+    ($simd:expr, $run:ident . $avx2:ident / $any:ident ( $($arg:expr),* )) => {{
+        #[cfg(target_arch = "x86_64")]
+        if $simd == $crate::Simd::Avx2 {
+            // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
+            unsafe { $run.$avx2($($arg),*) }
+        } else {
+            $run.$any($($arg),*)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        $run.$any($($arg),*)
+    }};
+}
+
+impl PairRun<'_> {
+    /// Evaluates the straddling pairs `mine` (list indices, ascending; the
+    /// run starts at list index `k0`) into `out`, zero when apart.
+    #[inline(always)]
+    fn straddling(&mut self, x: &Inputs, k0: usize, mine: &[u32], out: &mut [ContactForce]) {
+        let mut slots = [0u32; PAIR_CHUNK];
+        let mut touching = [0u32; PAIR_CHUNK];
+        for (chunk, out) in mine.chunks(PAIR_CHUNK).zip(out.chunks_mut(PAIR_CHUNK)) {
+            for (s, &k) in slots.iter_mut().zip(chunk) {
+                *s = k - k0 as u32;
+            }
+            let slots = &slots[..chunk.len()];
+            let count = self.sort_out(&x.packed.sphere, slots, &mut touching);
+            out.fill(ContactForce::default());
+            let which = &touching[..count];
+            let mut w = 0;
+            self.evaluate(x.packed, x.model, x.dt_s, slots, which, |cf| {
+                out[which[w] as usize] = cf;
+                w += 1;
+            });
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn straddling_avx2(&mut self, x: &Inputs, k0: usize, mine: &[u32], out: &mut [ContactForce]) {
+        self.straddling(x, k0, mine, out)
+    }
+
+    /// The forces on block `lo..hi` (`f`, `t` from `lo`): body force, the
+    /// straddling pairs `incoming` (positions in `x.cross`) of earlier
+    /// blocks, then this run's pairs (list indices from `k0`; those that
+    /// straddle from position `cursor` of `x.cross` on).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn block(
+        &mut self,
+        x: &Inputs,
+        (lo, hi): (usize, usize),
+        k0: usize,
+        incoming: &[u32],
+        mut cursor: usize,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+    ) {
+        let p = x.p;
+        if f.is_empty() {
+            // No particles, so no pairs and nothing incoming.
+            return;
+        }
+        for (k, (f, t)) in f.iter_mut().zip(t.iter_mut()).enumerate() {
+            *f = x.body_accel * p.mass_kg[lo + k];
+            *t = Vector3::zeros();
+        }
+        for &c in incoming {
+            let j = x.pj[x.cross[c as usize] as usize] as usize;
+            let cf = &x.cross_force[c as usize];
+            add_contact(&mut f[j - lo], &mut t[j - lo], cf, p.radius_m[j], true);
+        }
+        let mut slots = [0u32; PAIR_CHUNK];
+        let mut touching = [0u32; PAIR_CHUNK];
+        let mut inside = [0u32; PAIR_CHUNK];
+        let mut outside = [0u32; PAIR_CHUNK];
+        let (pi, pj) = (self.pi, self.pj);
+        let radius = |i: usize| x.packed.sphere[i].0[3];
+        let len = pi.len();
+        for s0 in (0..len).step_by(PAIR_CHUNK) {
+            let m = PAIR_CHUNK.min(len - s0);
+            for (n, s) in slots[..m].iter_mut().enumerate() {
+                *s = (s0 + n) as u32;
+            }
+            let slots = &slots[..m];
+            let count = self.sort_out(&x.packed.sphere, slots, &mut touching);
+            let (mut n_inside, mut n_outside) = (0, 0);
+            for &w in &touching[..count] {
+                let is_inside = (pj[slots[w as usize] as usize] as usize) < hi;
+                inside[n_inside] = w;
+                outside[n_outside] = w;
+                n_inside += usize::from(is_inside);
+                n_outside += usize::from(!is_inside);
+            }
+            // Each inside pair's result goes straight to both particles, in
+            // pair order: a particle's sum sees the same terms in the same
+            // order as if the pairs were taken one by one.
+            let which = &inside[..n_inside];
+            let mut next = 0;
+            self.evaluate(x.packed, x.model, x.dt_s, slots, which, |cf| {
+                let s = slots[which[next] as usize] as usize;
+                next += 1;
+                let (i, j) = (pi[s] as usize, pj[s] as usize);
+                add_contact(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
+                add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
+            });
+            // A particle's straddling pairs come after its inside ones (j
+            // ascending) and nothing is added to it after its own pairs, so
+            // adding them after this chunk's inside pairs keeps the order.
+            for &w in &outside[..n_outside] {
+                let s = slots[w as usize] as usize;
+                let i = pi[s] as usize;
+                let k = (k0 + s) as u32;
+                while x.cross[cursor] < k {
+                    cursor += 1;
+                }
+                add_contact(
+                    &mut f[i - lo],
+                    &mut t[i - lo],
+                    &x.cross_force[cursor],
+                    radius(i),
+                    false,
+                );
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    fn block_avx2(
+        &mut self,
+        x: &Inputs,
+        range: (usize, usize),
+        k0: usize,
+        incoming: &[u32],
+        cursor: usize,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+    ) {
+        self.block(x, range, k0, incoming, cursor, f, t)
+    }
+}
+
+/// Body force and every pair contact of each particle into `p.force_n` and
+/// `p.torque_n_m` (overwritten), updating the pairs' histories; `packed`
+/// is `p`'s current state packed ([`Particles::pack_into`]).
+pub(crate) fn pair_forces(
+    params: &Params,
+    p: &mut Particles,
+    list: &mut NeighbourList,
+    blocks: &mut Blocks,
+    packed: &Packed,
+) {
+    let simd = simd();
+    blocks.split(list, rayon::current_num_threads() * BLOCKS_PER_WORKER);
+    let mut force = std::mem::take(&mut p.force_n);
+    let mut torque = std::mem::take(&mut p.torque_n_m);
+    let nb = blocks.count();
+    let first = &blocks.first;
+    let start = &list.start;
+    // Pair range of block b, and its straddling pairs' range in `cross`.
+    let pairs_of = |b: usize| start[first[b]] as usize..start[first[b + 1]] as usize;
+    let cross = &blocks.cross;
+    let cross_of = |b: usize| {
+        let r = pairs_of(b);
+        cross.partition_point(|&k| (k as usize) < r.start)
+            ..cross.partition_point(|&k| (k as usize) < r.end)
+    };
+    let (pi, pj) = (&list.pair_i[..], &list.pair_j[..]);
+    let mut x = Inputs {
+        p,
+        packed,
+        model: &params.pair_model,
+        dt_s: params.dt_s,
+        body_accel: params.gravity_m_s2 * params.buoyancy_factor(),
+        pj,
+        cross,
+        cross_force: &[],
+    };
+
+    // 1. The straddling pairs, in as many pieces of equal count as there
+    // are blocks (they bunch where blocks meet, so by block they would fall
+    // to one worker); piece q owns the list's pairs from its first
+    // straddling pair to the next piece's.
+    let pieces = nb.min(cross.len()).max(1);
+    let cut = |q: usize| cross.len() * q / pieces;
+    let pair_cut = |q: usize| match q {
+        0 => 0,
+        q if q == pieces => pi.len(),
+        q => cross[cut(q)] as usize,
+    };
+    let piece_pairs = || (0..pieces).map(|q| pair_cut(q + 1) - pair_cut(q));
+    let histories = split_lengths(&mut list.history, piece_pairs());
+    let opens = split_lengths(&mut list.open, piece_pairs());
+    let outs = split_lengths(
+        &mut blocks.cross_force,
+        (0..pieces).map(|q| cut(q + 1) - cut(q)),
+    );
+    (histories, opens, outs)
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(q, (history, open, out))| {
+            let ks = pair_cut(q)..pair_cut(q + 1);
+            let mut run = PairRun::of(pi, pj, ks.clone(), history, open);
+            let mine = &cross[cut(q)..cut(q + 1)];
+            dispatch!(
+                simd,
+                run.straddling_avx2 / straddling(&x, ks.start, mine, out)
+            );
+        });
+
+    // 2. Each block in pair order: what its particles receive from the
+    // straddling pairs of earlier blocks, then its own pairs.
+    x.cross_force = &blocks.cross_force;
+    let (incoming, incoming_start) = (&blocks.incoming, &blocks.incoming_start);
+    let block_lens = || (0..nb).map(|b| first[b + 1] - first[b]);
+    let histories = split_lengths(&mut list.history, (0..nb).map(|b| pairs_of(b).len()));
+    let opens = split_lengths(&mut list.open, (0..nb).map(|b| pairs_of(b).len()));
+    let forces = split_lengths(&mut force, block_lens());
+    let torques = split_lengths(&mut torque, block_lens());
+    let spent_ns: Vec<u64> = (histories, opens, forces, torques)
+        .into_par_iter()
+        .enumerate()
+        .map(|(b, (history, open, f, t))| {
+            let started = std::time::Instant::now();
+            let ks = pairs_of(b);
+            let mut run = PairRun::of(pi, pj, ks.clone(), history, open);
+            let into = &incoming[incoming_start[b]..incoming_start[b + 1]];
+            let range = (first[b], first[b + 1]);
+            let cursor = cross_of(b).start;
+            dispatch!(
+                simd,
+                run.block_avx2 / block(&x, range, ks.start, into, cursor, f, t)
+            );
+            u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX)
+        })
+        .collect();
+    for (total, t) in blocks.spent_ns.iter_mut().zip(spent_ns) {
+        *total = total.saturating_add(t);
+    }
+    p.force_n = force;
+    p.torque_n_m = torque;
+}
+
+/// Geometry of particle i against `wall`, if they touch.
+#[inline(always)]
+fn wall_geometry(p: &Particles, i: usize, wall: &Wall) -> Option<ContactGeometry> {
+    let r = p.radius_m[i];
+    let (n, overlap) = wall.touch(&p.position_m[i], r)?;
+    Some(ContactGeometry::sphere_on_surface(
+        n,
+        overlap,
+        r,
+        p.mass_kg[i],
+        p.velocity_m_s[i] - wall.velocity_m_s,
+        p.angular_velocity_rad_s[i],
+    ))
+}
+
+/// One wall-pass chunk (particles from `lo`): what it reads.
+struct WallChunk<'a> {
+    params: &'a Params,
+    p: &'a Particles,
+    /// The chunk's candidate particles, ascending.
+    candidates: &'a [u32],
+    near: &'a [u64],
+    lo: usize,
+}
+
+/// What one wall-pass chunk writes: its particles' forces and torques,
+/// their wall histories and open-wall bits, and its partial sums per wall.
+struct WallOut<'a> {
+    f: &'a mut [Vector3<f64>],
+    t: &'a mut [Vector3<f64>],
+    wh: &'a mut [History],
+    mask: &'a mut [u64],
+    wp: &'a mut [Vector3<f64>],
+}
+
+/// The touching contacts of one wall gathered for a four-lane evaluation.
+struct WallBatch {
+    k: [usize; LANE_COUNT],
+    g: [ContactGeometry; LANE_COUNT],
+    len: usize,
+}
+
+impl WallChunk<'_> {
+    /// Adds the chunk's wall contacts to `out.f`, `out.t`, wall by wall,
+    /// four touching contacts at a time, each particle's in wall order, so
+    /// each sum sees the terms the particle-by-particle order gave;
+    /// `out.wp[w]` sums wall w's reaction in particle order.
+    #[inline(always)]
+    fn run(&self, out: WallOut) {
+        let WallOut { f, t, wh, mask, wp } = out;
+        let params = self.params;
+        let stride = params.walls.len().max(1);
+        wp.iter_mut().for_each(|w| *w = Vector3::zeros());
+        // The walls each candidate touches now (bit per wall, as `mask`).
+        let mut touching = [0u64; GATHER_CHUNK];
+        for (w, wall) in params.walls.iter().enumerate() {
+            let bit = 1u64 << w.min(63);
+            let mut batch = WallBatch {
+                k: [0; LANE_COUNT],
+                g: [ContactGeometry::default(); LANE_COUNT],
+                len: 0,
+            };
+            for &i in self.candidates {
+                let i = i as usize;
+                let k = i - self.lo;
+                // Walls that can touch i before the next list build, and
+                // those it touched last step (to clear their history).
+                if (self.near[i] | mask[k]) & bit == 0 {
+                    continue;
+                }
+                match wall_geometry(self.p, i, wall) {
+                    Some(g) => {
+                        touching[k] |= bit;
+                        batch.k[batch.len] = k;
+                        batch.g[batch.len] = g;
+                        batch.len += 1;
+                        if batch.len == LANE_COUNT {
+                            self.evaluate(w, &batch, f, t, wh, wp);
+                            batch.len = 0;
+                        }
+                    }
+                    // Clear a history only where a contact just opened
+                    // (keeps the step from streaming every history).
+                    None if mask[k] & bit != 0 => wh[k * stride + w] = History::default(),
+                    None => {}
+                }
+            }
+            if batch.len > 0 {
+                // Pad with the last contact: the same history in, the
+                // same values out, and only `len` lanes are kept.
+                for l in batch.len..LANE_COUNT {
+                    batch.k[l] = batch.k[batch.len - 1];
+                    batch.g[l] = batch.g[batch.len - 1];
+                }
+                self.evaluate(w, &batch, f, t, wh, wp);
+            }
+        }
+        for &i in self.candidates {
+            let k = i as usize - self.lo;
+            mask[k] = touching[k];
+        }
+    }
+
+    /// Evaluates `batch` on wall `w` and adds its first `batch.len`
+    /// contacts, in order.
+    #[inline(always)]
+    fn evaluate(
+        &self,
+        w: usize,
+        batch: &WallBatch,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+        wh: &mut [History],
+        wp: &mut [Vector3<f64>],
+    ) {
+        let stride = self.params.walls.len().max(1);
+        let g = ContactGeometry::<Lanes>::gather(&batch.g);
+        let mut h = [Lanes::splat(0.0); HISTORY_LEN];
+        for (l, &k) in batch.k.iter().enumerate() {
+            for (h, &v) in h.iter_mut().zip(&wh[k * stride + w]) {
+                h.0[l] = v;
+            }
+        }
+        let model = &self.params.walls[w].model;
+        let cf = model.evaluate(&g, self.params.dt_s, &mut h);
+        for (l, &k) in batch.k.iter().enumerate().take(batch.len) {
+            wh[k * stride + w] = h.map(|c| c.0[l]);
+            let cf = cf.lane(l);
+            f[k] += cf.force_n;
+            t[k] += cf.torque_per_radius_n * self.p.radius_m[self.lo + k] + cf.rolling_torque_n_m;
+            wp[w] -= cf.force_n;
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_avx2(&self, out: WallOut) {
+        self.run(out)
+    }
+}
+
+/// Adds, per particle, its wall contacts to `p.force_n`/`p.torque_n_m`,
+/// keeping the wall contacts' history and each chunk's force on each wall
+/// in `walls`.
+pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallContacts) {
+    let simd = simd();
+    let stride = params.walls.len().max(1);
+    let mut force = std::mem::take(&mut p.force_n);
+    let mut torque = std::mem::take(&mut p.torque_n_m);
+    let pr: &Particles = p;
+    let near = &walls.near;
+    let (candidates, candidate_start) = (&walls.candidates, &walls.candidate_start);
+    (
+        force.par_chunks_mut(GATHER_CHUNK),
+        torque.par_chunks_mut(GATHER_CHUNK),
+        walls.history.par_chunks_mut(GATHER_CHUNK * stride),
+        walls.open.par_chunks_mut(GATHER_CHUNK),
+        walls.partial.par_chunks_mut(stride),
+    )
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(c, (f, t, wh, mask, wp))| {
+            let chunk = WallChunk {
+                params,
+                p: pr,
+                candidates: &candidates[candidate_start[c]..candidate_start[c + 1]],
+                near,
+                lo: c * GATHER_CHUNK,
+            };
+            let out = WallOut { f, t, wh, mask, wp };
+            dispatch!(simd, chunk.run_avx2 / run(out));
+        });
+    p.force_n = force;
+    p.torque_n_m = torque;
+}
+
+/// Most walls [`WallContacts`] culls by: with more, every wall is checked.
+const MAX_CULLED_WALLS: usize = 64;
+
+/// Per-particle state of the wall contacts.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct WallContacts {
+    /// Contact history of particle i on wall w at `i * stride + w`
+    /// (stride = max(walls, 1)).
+    pub(crate) history: Vec<History>,
+    /// Bit w set while particle i touches wall w (walls past the 64th
+    /// share bit 63).
+    pub(crate) open: Vec<u64>,
+    /// Bit w set if particle i can touch wall w before the next list build
+    /// ([`WallContacts::cull`]); only those and the open ones are checked.
+    pub(crate) near: Vec<u64>,
+    /// Particles with a bit set in `near` or `open` at the last cull,
+    /// ascending: the only ones the wall pass visits.
+    candidates: Vec<u32>,
+    /// `candidates[candidate_start[c]..candidate_start[c + 1]]` lie in
+    /// wall-pass chunk c.
+    candidate_start: Vec<usize>,
+    /// The list build and wall shapes `near` was made for.
+    near_for: (u64, Vec<WallShape>),
+    /// Chunk c's force on wall w at `c * stride + w` (N), summed in chunk
+    /// order for totals independent of the thread count.
+    pub(crate) partial: Vec<Vector3<f64>>,
+}
+
+impl WallContacts {
+    /// Whether the arrays fit `n` particles and `walls` walls.
+    pub(crate) fn fits(&self, n: usize, walls: usize) -> bool {
+        self.history.len() == n * walls.max(1) && self.open.len() == n
+    }
+
+    /// Empties every contact and sizes the arrays for `n` particles and
+    /// `walls` walls.
+    pub(crate) fn reset(&mut self, n: usize, walls: usize) {
+        let stride = walls.max(1);
+        self.history = vec![History::default(); n * stride];
+        self.open = vec![u64::MAX; n];
+        self.near_for = (u64::MAX, Vec::new());
+        self.partial = vec![Vector3::zeros(); n.div_ceil(GATHER_CHUNK).max(1) * stride];
+    }
+
+    /// Marks, per particle, the walls it can touch while it stays within
+    /// half the skin (m) of `list.reference_m`: those closer than the skin
+    /// to its surface there. Redone when the list was rebuilt or the walls
+    /// moved (the caller changed them); every wall when there are more than
+    /// [`MAX_CULLED_WALLS`].
+    pub(crate) fn cull(
+        &mut self,
+        walls: &[Wall],
+        p: &Particles,
+        list: &NeighbourList,
+        skin_m: f64,
+    ) {
+        let shapes = walls.iter().map(|w| w.shape);
+        if self.near_for.0 == list.builds
+            && self.near.len() == p.len()
+            && shapes.clone().eq(self.near_for.1.iter().copied())
+        {
+            return;
+        }
+        self.near_for = (list.builds, shapes.collect());
+        if walls.len() > MAX_CULLED_WALLS {
+            self.near.clear();
+            self.near.resize(p.len(), u64::MAX);
+        } else {
+            list.reference_m
+                .par_iter()
+                .zip(p.radius_m.par_iter())
+                .map(|(x, &r)| {
+                    walls
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, wall)| wall.clearance_m(x, r) < skin_m)
+                        .fold(0u64, |m, (w, _)| m | 1 << w)
+                })
+                .collect_into_vec(&mut self.near);
+        }
+        // A particle neither near a wall nor touching one now cannot touch
+        // one before the next build: the wall pass skips it.
+        self.candidates.clear();
+        self.candidate_start.clear();
+        self.candidate_start.push(0);
+        for (i, (&near, &open)) in self.near.iter().zip(&self.open).enumerate() {
+            if i > 0 && i % GATHER_CHUNK == 0 {
+                self.candidate_start.push(self.candidates.len());
+            }
+            if near | open != 0 {
+                self.candidates.push(i as u32);
+            }
+        }
+        let chunks = p.len().div_ceil(GATHER_CHUNK);
+        self.candidate_start
+            .resize(chunks + 1, self.candidates.len());
+    }
+
+    /// Total force on each wall (N) from the chunks' partial sums.
+    pub(crate) fn totals(&self, out: &mut [Vector3<f64>]) {
+        let stride = out.len().max(1);
+        for (w, total) in out.iter_mut().enumerate() {
+            *total = self
+                .partial
+                .iter()
+                .skip(w)
+                .step_by(stride)
+                .fold(Vector3::zeros(), |a, b| a + b);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row of 200 touching spheres (r = 1 mm, 1.9 mm apart) and its list.
+    fn row() -> NeighbourList {
+        let x: Vec<_> = (0..200)
+            .map(|i| Vector3::new(i as f64 * 1.9e-3, 0.0, 0.0))
+            .collect();
+        let r = vec![1e-3; x.len()];
+        let mut list = NeighbourList::default();
+        list.build(&x, &r, 2e-4).unwrap();
+        list
+    }
+
+    #[test]
+    fn equal_work_splits_a_uniform_row_in_the_middle() {
+        let list = row();
+        let mut blocks = Blocks::default();
+        blocks.split(&list, 2);
+        assert_eq!(blocks.first, vec![0, 100, 200]);
+        // Straddling: only the pair (99, 100).
+        assert_eq!(blocks.cross.len(), 1);
+    }
+
+    #[test]
+    fn a_block_that_ran_long_gives_up_particles_at_the_next_split() {
+        let mut list = row();
+        let mut blocks = Blocks::default();
+        blocks.split(&list, 2);
+        // Block 0 took twice as long per unit of work as block 1.
+        blocks.spent_ns = vec![2_000, 1_000];
+        list.builds += 1;
+        blocks.split(&list, 2);
+        let b = blocks.first[1];
+        // Rates √(4/3) and √(2/3): with one listed pair per particle (none
+        // for the last) the halves balance where 1.155 b = 0.816 (199 − b),
+        // b ≈ 85.
+        assert!((84..=86).contains(&b), "split at {b}");
+        // Untimed, the same build keeps its split; a new build with equal
+        // times keeps the learnt rates.
+        blocks.spent_ns = vec![1_000, 1_000];
+        list.builds += 1;
+        blocks.split(&list, 2);
+        assert!(blocks.first[1] < 100);
+    }
+}

@@ -1,0 +1,320 @@
+//! # Discrete-element sand
+//!
+//! Spheres with Hertz–Mindlin contacts (history, Coulomb cap), damping set
+//! from a restitution coefficient, optional rolling resistance, gravity with
+//! buoyancy, plane and cylinder walls; a Verlet neighbour list on a cell
+//! grid; velocity-Verlet integration; parallel with rayon and bit-for-bit
+//! deterministic whatever the thread count (every particle sums its forces
+//! in a fixed order, the `forces` module).
+//!
+//! The API follows rapier: all state is explicit and one call advances it,
+//! [`step`]`(&Params, &mut State, &mut impl Sink)`. Contact laws are one
+//! trait per family in [`contact`], composed in LAMMPS' order by
+//! [`contact::ContactModel`]. Outputs and coupling forces go through a
+//! [`Sink`], with `()` as the no-op.
+//!
+//! ```
+//! use dem::{step, Params, State, Particles, contact::{Material, ContactSpec}};
+//! use nalgebra::Vector3;
+//! let sand = Material { youngs_modulus_pa: 1e7, poisson_ratio: 0.3, density_kg_m3: 2920.0 };
+//! let params = Params::new(&sand, &ContactSpec::default(), 1.5e-5).unwrap();
+//! let mut p = Particles::new();
+//! p.push(Vector3::new(0.0, 0.0, 0.01), Vector3::zeros(), 1e-3, 2920.0).unwrap();
+//! let mut state = State::new(p);
+//! step(&params, &mut state, &mut ()).unwrap();
+//! assert!(state.particles.velocity_m_s[0].z < 0.0);
+//! ```
+
+pub mod benchmark;
+pub mod contact;
+mod forces;
+pub mod integrate;
+pub mod neighbour;
+pub mod particles;
+pub mod sink;
+pub mod walls;
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+pub use contact::{ContactModel, ContactSpec, Material};
+pub use forces::{best_simd, simd, use_simd, Simd};
+pub use neighbour::NeighbourList;
+pub use particles::Particles;
+use particles::Sphere;
+pub use sink::Sink;
+pub use walls::{CylinderSide, Wall, WallShape};
+
+/// What can go wrong in the solver.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum DemError {
+    /// A parameter is out of its range.
+    #[error("DEM parameter {name} = {value} is out of range")]
+    Param {
+        /// Which parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A particle's position or velocity is not finite (the time step is
+    /// probably too large for the stiffness).
+    #[error("particle {particle} has a non-finite position or velocity (time step too large?)")]
+    NonFinite {
+        /// Its index.
+        particle: usize,
+    },
+}
+
+impl DemError {
+    pub(crate) fn param(name: &'static str, value: f64) -> DemError {
+        DemError::Param { name, value }
+    }
+}
+
+/// Everything that stays fixed during a run. Units in the names; defaults
+/// from [`Params::new`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    /// Time step (s). No default: it must be a fraction (≈ 0.1–0.2) of the
+    /// Rayleigh time 0.1631 d √(ρ/G) / (0.1631 ν + 0.8766).
+    pub dt_s: f64,
+    /// Gravitational acceleration (m/s²). Default (0, 0, −9.81).
+    pub gravity_m_s2: Vector3<f64>,
+    /// Density of the fluid the grains are immersed in (kg/m³); the body
+    /// force is m g (1 − ρ_f/ρ_s) (Archimedes, no drag or added mass).
+    /// Default 0 (dry).
+    pub fluid_density_kg_m3: f64,
+    /// Grain density ρ_s (kg/m³) for the buoyancy ratio; the masses are
+    /// set per particle at creation. Default: the material's.
+    pub particle_density_kg_m3: f64,
+    /// Verlet skin (m): pairs closer than this (surface to surface) are
+    /// listed; the list is rebuilt when a particle has moved skin/2.
+    /// Default 2e-4 (0.1 d for 1 mm grains).
+    pub skin_m: f64,
+    /// Particle–particle contact law.
+    pub pair_model: ContactModel,
+    /// Walls, with their own contact laws. Default none.
+    pub walls: Vec<Wall>,
+}
+
+impl Params {
+    /// Grains of `material` with contacts `spec` (Hertz–Mindlin), time step
+    /// `dt_s` (s), dry, standard gravity, no walls.
+    pub fn new(material: &Material, spec: &ContactSpec, dt_s: f64) -> Result<Params, DemError> {
+        let params = Params {
+            dt_s,
+            gravity_m_s2: Vector3::new(0.0, 0.0, -9.81),
+            fluid_density_kg_m3: 0.0,
+            particle_density_kg_m3: material.density_kg_m3,
+            skin_m: 2e-4,
+            pair_model: ContactModel::hertz_mindlin(material, material, spec)?,
+            walls: Vec::new(),
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// Checks the ranges of the scalar fields.
+    pub fn validate(&self) -> Result<(), DemError> {
+        if !(self.dt_s > 0.0 && self.dt_s.is_finite()) {
+            return Err(DemError::param("dt_s", self.dt_s));
+        }
+        if !(self.skin_m > 0.0 && self.skin_m.is_finite()) {
+            return Err(DemError::param("skin_m", self.skin_m));
+        }
+        if !(self.fluid_density_kg_m3 >= 0.0 && self.fluid_density_kg_m3.is_finite()) {
+            return Err(DemError::param(
+                "fluid_density_kg_m3",
+                self.fluid_density_kg_m3,
+            ));
+        }
+        if !(self.particle_density_kg_m3 > 0.0 && self.particle_density_kg_m3.is_finite()) {
+            return Err(DemError::param(
+                "particle_density_kg_m3",
+                self.particle_density_kg_m3,
+            ));
+        }
+        if !self.gravity_m_s2.iter().all(|g| g.is_finite()) {
+            return Err(DemError::param("gravity_m_s2", f64::NAN));
+        }
+        Ok(())
+    }
+
+    /// 1 − ρ_f/ρ_s: the fraction of the weight left after buoyancy.
+    pub fn buoyancy_factor(&self) -> f64 {
+        1.0 - self.fluid_density_kg_m3 / self.particle_density_kg_m3
+    }
+}
+
+/// The evolving state: particles, time, neighbour list with contact
+/// history, wall-contact history and per-step results.
+#[derive(Clone, Debug)]
+pub struct State {
+    /// The particles.
+    pub particles: Particles,
+    /// Simulated time (s).
+    pub time_s: f64,
+    /// Steps taken.
+    pub step_count: u64,
+    neighbours: NeighbourList,
+    blocks: forces::Blocks,
+    wall_contacts: forces::WallContacts,
+    wall_force_n: Vec<Vector3<f64>>,
+    forces_ready: bool,
+    /// The particles' state packed for the pair pass; current only right
+    /// after [`integrate::kick_drift`] wrote it.
+    packed: particles::Packed,
+}
+
+impl State {
+    /// A state at t = 0 holding `particles`.
+    pub fn new(particles: Particles) -> State {
+        State {
+            particles,
+            time_s: 0.0,
+            step_count: 0,
+            neighbours: NeighbourList::default(),
+            blocks: forces::Blocks::default(),
+            wall_contacts: forces::WallContacts::default(),
+            wall_force_n: Vec::new(),
+            forces_ready: false,
+            packed: particles::Packed::default(),
+        }
+    }
+
+    /// Force the particles exert on each wall at the last evaluation (N),
+    /// in `Params::walls` order.
+    pub fn wall_forces_n(&self) -> &[Vector3<f64>] {
+        &self.wall_force_n
+    }
+
+    /// The neighbour list (pairs, rebuild count).
+    pub fn neighbours(&self) -> &NeighbourList {
+        &self.neighbours
+    }
+
+    /// Number of touching particle pairs at the current positions.
+    pub fn contact_pairs(&self) -> usize {
+        let p = &self.particles;
+        let l = &self.neighbours;
+        (0..l.pair_count())
+            .into_par_iter()
+            .filter(|&k| {
+                let (i, j) = (l.pair_i[k] as usize, l.pair_j[k] as usize);
+                let sphere = |i: usize| Sphere::new(&p.position_m[i], p.radius_m[i]);
+                sphere(i).overlaps(&sphere(j))
+            })
+            .count()
+    }
+
+    /// Mean particle–particle contacts per particle (2 × pairs / N), as
+    /// LIGGGHTS' `contact/atom` summed over atoms.
+    pub fn mean_contacts(&self) -> f64 {
+        if self.particles.is_empty() {
+            return 0.0;
+        }
+        2.0 * self.contact_pairs() as f64 / self.particles.len() as f64
+    }
+
+    /// Sizes the per-wall arrays for `walls` walls (resetting wall history
+    /// when the count changed) and rebuilds a stale neighbour list.
+    fn prepare(&mut self, params: &Params) -> Result<(), DemError> {
+        let n = self.particles.len();
+        let walls = params.walls.len();
+        if !self.wall_contacts.fits(n, walls) || self.wall_force_n.len() != walls {
+            self.wall_contacts.reset(n, walls);
+            self.wall_force_n = vec![Vector3::zeros(); walls];
+            self.forces_ready = false;
+        }
+        if self.neighbours.is_stale(n, params.skin_m) {
+            self.rebuild(params)?;
+            self.forces_ready = false;
+        }
+        Ok(())
+    }
+
+    fn rebuild(&mut self, params: &Params) -> Result<(), DemError> {
+        self.neighbours.build(
+            &self.particles.position_m,
+            &self.particles.radius_m,
+            params.skin_m,
+        )?;
+        Ok(())
+    }
+
+    /// Contact, wall and body forces at the current positions, then the
+    /// sink's external forces. `packed_current`: the integrator has just
+    /// packed the state (else it is packed here).
+    fn evaluate_forces(&mut self, params: &Params, sink: &mut impl Sink, packed_current: bool) {
+        if !packed_current {
+            self.particles.pack_into(&mut self.packed);
+        }
+        forces::pair_forces(
+            params,
+            &mut self.particles,
+            &mut self.neighbours,
+            &mut self.blocks,
+            &self.packed,
+        );
+        self.wall_contacts.cull(
+            &params.walls,
+            &self.particles,
+            &self.neighbours,
+            params.skin_m,
+        );
+        forces::wall_forces(params, &mut self.particles, &mut self.wall_contacts);
+        self.wall_contacts.totals(&mut self.wall_force_n);
+        sink.add_external_forces(self.time_s, &mut self.particles);
+    }
+}
+
+/// `s` cut into consecutive pieces of lengths `lens` (which must not sum
+/// past its length), for handing disjoint parts to parallel tasks.
+pub(crate) fn split_lengths<T>(
+    mut s: &mut [T],
+    lens: impl Iterator<Item = usize>,
+) -> Vec<&mut [T]> {
+    lens.map(|len| {
+        let (piece, rest) = std::mem::take(&mut s).split_at_mut(len);
+        s = rest;
+        piece
+    })
+    .collect()
+}
+
+/// Advances `state` by one step `params.dt_s` (velocity Verlet), calling
+/// `sink` for external forces and at the end.
+pub fn step(params: &Params, state: &mut State, sink: &mut impl Sink) -> Result<(), DemError> {
+    params.validate()?;
+    state.prepare(params)?;
+    if !state.forces_ready {
+        state.evaluate_forces(params, sink, false);
+        state.forces_ready = true;
+    }
+    let max2 = integrate::kick_drift(
+        &mut state.particles,
+        params.dt_s,
+        &state.neighbours.reference_m,
+        &mut state.packed,
+    );
+    if !max2.is_finite() {
+        let bad = state
+            .particles
+            .position_m
+            .iter()
+            .position(|x| !x.iter().all(|v| v.is_finite()))
+            .unwrap_or(0);
+        return Err(DemError::NonFinite { particle: bad });
+    }
+    let half_skin = 0.5 * params.skin_m;
+    if max2 > half_skin * half_skin {
+        state.rebuild(params)?;
+    }
+    state.time_s += params.dt_s;
+    // Nothing moved the particles since kick_drift packed them.
+    state.evaluate_forces(params, sink, true);
+    integrate::kick(&mut state.particles, params.dt_s);
+    state.step_count += 1;
+    sink.step_done(state);
+    Ok(())
+}

@@ -1,0 +1,41 @@
+//! `sensor_gain`: the transducer's sensitivity differs from its datasheet
+//! (a wrong calibration factor): reading = gain·p. Identifiable against
+//! the skin only when the skin is known (`[skin]` in rig.toml).
+
+use super::{value, Effect, EffectSpec};
+use crate::params::ParamSpec;
+
+const PARAMS: [ParamSpec; 1] = [ParamSpec {
+    name: "gain",
+    unit: "-",
+    lower: 0.5,
+    upper: 2.0,
+    default: 1.0,
+    description: "reading per unit of true gauge pressure",
+}];
+
+/// Registry row.
+pub static SPEC: EffectSpec = EffectSpec {
+    name: "sensor_gain",
+    description: "The pressure reading is the true gauge pressure times a gain different from 1 (a wrong calibration factor).",
+    signature: "a residual proportional to the pressure itself: zero at rest, largest at the highest pressures, same sign in every phase",
+    params: &PARAMS,
+    build: |v| Box::new(SensorGain { gain: value(v, &PARAMS, 0) }),
+    not_applicable: |_| None,
+};
+
+/// A gain on the reading.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorGain {
+    /// Reading per kPa of true gauge pressure.
+    pub gain: f64,
+}
+
+impl Effect for SensorGain {
+    fn spec(&self) -> &'static EffectSpec {
+        &SPEC
+    }
+    fn reading_kpa(&self, _: &super::StepContext, _: f64, reading_kpa: f64) -> f64 {
+        self.gain * reading_kpa
+    }
+}

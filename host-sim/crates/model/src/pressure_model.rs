@@ -1,0 +1,166 @@
+//! The project's p_i(D, h): the skin tube's own pressure plus the sand's,
+//! p_i = p_membrane(D) + p_e(D, h) (exact for an incompressible wall; see
+//! [`skin::membrane`]). The firmware tables sample it with the
+//! FEM–DEM solver's sand ([`SkinSandModel::paper_solver`]); the demo and the
+//! skin tests use the parametric sand ([`SkinSandModel::paper_default`]).
+
+use std::path::Path;
+
+use anyhow::{ensure, Context, Result};
+
+use rig::Rig;
+
+use sand::{ParametricSand, SandLaw, SolverSand};
+use skin::membrane::{Ends, InflationState, Tube};
+use skin::Yeoh;
+
+/// The physics a table is sampled from: loading-branch internal pressure
+/// p_i(D, h) in kPa for outer diameter D (mm) and sand depth h (mm).
+pub trait PressureModel {
+    /// p_i (kPa) at outer diameter `diameter_mm` and depth `depth_mm`.
+    fn internal_pressure_kpa(&self, diameter_mm: f64, depth_mm: f64) -> f64;
+    /// One line saying where the numbers come from (goes into the file).
+    fn provenance(&self) -> String;
+    /// True while the model is a stand-in, not the project's physics.
+    fn is_placeholder(&self) -> bool;
+}
+
+/// Skin tube plus a sand law.
+#[derive(Clone, Debug)]
+pub struct SkinSandModel<S = ParametricSand> {
+    /// The skin tube of the expansion zone.
+    pub tube: Tube<Yeoh>,
+    /// The sand around it.
+    pub sand: S,
+}
+
+/// The paper's zone (D0 18.7 mm, 1.75 mm skin, 20 mm,
+/// [`TubeGeometry::PAPER`](skin::membrane::TubeGeometry::PAPER)) of
+/// the default Yeoh skin with closed ends: the zone is part of a closed,
+/// pressurised body, so its wall carries the pressure on the cross-section.
+fn paper_tube() -> Tube<Yeoh> {
+    Tube::paper(skin::default_skin(), Ends::Closed)
+}
+
+impl SkinSandModel<ParametricSand> {
+    /// The paper's zone in the balloon-calibrated parametric sand.
+    pub fn paper_default() -> Self {
+        Self {
+            tube: paper_tube(),
+            sand: ParametricSand::calibrated_to_balloon(),
+        }
+    }
+}
+
+impl SkinSandModel<SolverSand> {
+    /// The paper's zone in the FEM–DEM solver's sand, read from the data
+    /// file stored under the repository root `repo_root`.
+    pub fn paper_solver(repo_root: &Path) -> Result<Self> {
+        Ok(Self {
+            tube: paper_tube(),
+            sand: SolverSand::from_repo(repo_root)?,
+        })
+    }
+}
+
+impl SkinSandModel<SolverSand> {
+    /// The actuator of `rig` (its tube; its `[skin]` coefficients, else the
+    /// default skin; closed ends, as the paper's) in the solver sand
+    /// `sand`, which must have been run for that actuator (same D0, from
+    /// `solver-sand --rig`); `rig_file` names the rig in errors.
+    pub fn for_rig(rig: &Rig, rig_file: &str, sand: SolverSand) -> Result<Self> {
+        let a = &rig.actuator;
+        ensure!(
+            (sand.initial_diameter_mm() - a.initial_diameter_mm).abs() < 0.01,
+            "the solver runs were made for D0 = {} mm, but {rig_file} [actuator] initial_diameter_mm = {} mm (run `host-sim solver-sand --rig` for this rig)",
+            sand.initial_diameter_mm(),
+            a.initial_diameter_mm
+        );
+        let tube = Tube::new(a.tube(), rig.skin_law(), Ends::Closed)
+            .with_context(|| format!("{rig_file}: [actuator]/[skin]: the skin tube"))?;
+        Ok(Self { tube, sand })
+    }
+}
+
+impl<S> SkinSandModel<S> {
+    /// The skin's pressure p_membrane (kPa) at outer diameter `diameter_mm`.
+    pub fn membrane_kpa(&self, diameter_mm: f64) -> Result<f64> {
+        Ok(self.tube.pressure_kpa(diameter_mm)?)
+    }
+
+    /// The skin's full state (stretches, von Mises) at `diameter_mm`.
+    pub fn skin_state(&self, diameter_mm: f64) -> Result<InflationState> {
+        Ok(self.tube.state(diameter_mm)?)
+    }
+}
+
+impl<S: SandLaw> PressureModel for SkinSandModel<S> {
+    fn internal_pressure_kpa(&self, diameter_mm: f64, depth_mm: f64) -> f64 {
+        // NaN for a diameter the tube cannot reach; the table generator's
+        // verification refuses non-finite values.
+        self.tube.pressure_kpa(diameter_mm).unwrap_or(f64::NAN)
+            + self.sand.loading_pressure_kpa(diameter_mm, depth_mm)
+    }
+
+    fn provenance(&self) -> String {
+        let y = &self.tube.skin;
+        let g = &self.tube.geometry;
+        format!(
+            "host-sim skin + sand (issue 3): Yeoh C10={:.4} C20={:.5} C30={:.6} kPa \
+             ({}), {} thick tube \
+             D0={} mm wall={} mm; {}",
+            y.c10_kpa,
+            y.c20_kpa,
+            y.c30_kpa,
+            if *y == skin::default_skin() {
+                "fit to data/skin/unicinctus_circumferential.csv"
+            } else {
+                "the rig's [skin]"
+            },
+            self.tube.ends.label(),
+            g.outer_diameter_mm,
+            g.wall_thickness_mm,
+            self.sand.describe(),
+        )
+    }
+
+    fn is_placeholder(&self) -> bool {
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn internal_pressure_is_membrane_plus_sand() {
+        let m = SkinSandModel::paper_default();
+        for (d, h) in [(18.7, 0.0), (21.0, 40.0), (25.0, 100.0)] {
+            let want = m.membrane_kpa(d).unwrap() + m.sand.loading_pressure_kpa(d, h);
+            assert_eq!(m.internal_pressure_kpa(d, h), want);
+        }
+        // Free water at rest reads zero (the sensor's zero).
+        assert!(m.internal_pressure_kpa(18.7, 0.0).abs() < 1e-12);
+        // A diameter that closes the bore is NaN, not a panic.
+        assert!(m.internal_pressure_kpa(5.0, 0.0).is_nan());
+        assert!(!m.is_placeholder());
+    }
+
+    #[test]
+    fn solver_model_is_membrane_plus_the_stored_sand() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..");
+        let m = SkinSandModel::paper_solver(&root).unwrap();
+        for (d, h) in [(18.7, 0.0), (21.0, 40.0), (25.0, 100.0), (26.2, 200.0)] {
+            let want = m.membrane_kpa(d).unwrap() + m.sand.loading_pressure_kpa(d, h);
+            assert_eq!(m.internal_pressure_kpa(d, h), want);
+        }
+        assert!(m.internal_pressure_kpa(18.7, 0.0).abs() < 1e-12);
+        let line = m.provenance();
+        assert!(line.contains(sand::solver::DATA_PATH), "{line}");
+        assert!(
+            line.contains(&format!("0x{:08X}", m.sand.crc32())),
+            "{line}"
+        );
+    }
+}

@@ -1,0 +1,1122 @@
+//! The experiment folder of `shared/data-format.md`: `rig.toml` (the physical
+//! set-up) plus one or more `*.csv` time series. Lab rigs, the firmware's
+//! telemetry ([`crate::telemetry`]) and the emulator all write it with
+//! [`Experiment::write`]; the workbench reads nothing but
+//! [`Experiment::read`].
+//!
+//! Reading is strict: a missing key or column, a value that is not a finite
+//! number, rows out of time order, a run split across files or interleaved
+//! with another, a depth that changes within a run, or a run below sand
+//! with no `[sand]` section is an error naming the file, the line and the
+//! key or column. Unknown keys, sections and columns are only warnings;
+//! unknown columns are kept as text ([`Experiment::extra_columns`]) so they
+//! survive a read/write round trip.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+
+use atomic_file::write_atomic;
+
+pub mod telemetry;
+
+/// Name of the set-up file inside an experiment folder.
+pub const RIG_FILE: &str = "rig.toml";
+
+/// Name of the time-series file [`Experiment::write`] writes.
+pub const RUNS_FILE: &str = "runs.csv";
+
+/// A malformed experiment file: which file, which line (1-based, when one
+/// can be named) and what is wrong, with the key or column in the message.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub struct FormatError {
+    /// File name inside the folder (`rig.toml`, `runs.csv`, …).
+    pub file: String,
+    /// 1-based line, when the problem sits on one.
+    pub line: Option<u64>,
+    /// What is wrong, naming the key or column.
+    pub message: String,
+}
+
+impl fmt::Display for FormatError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(line) => write!(f, "{} line {}: {}", self.file, line, self.message),
+            None => write!(f, "{}: {}", self.file, self.message),
+        }
+    }
+}
+
+fn format_error(file: &str, line: Option<u64>, message: impl Into<String>) -> FormatError {
+    FormatError {
+        file: file.to_owned(),
+        line,
+        message: message.into(),
+    }
+}
+
+// ---------------------------------------------------------------------------
+// rig.toml
+
+/// `[actuator]`: the soft head's geometry at rest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Actuator {
+    /// Outer diameter at rest, D0 (mm).
+    pub initial_diameter_mm: f64,
+    /// Length of the zone that expands radially (mm).
+    pub expansion_length_mm: f64,
+    /// Skin thickness at rest (mm).
+    pub skin_thickness_mm: f64,
+}
+
+impl Actuator {
+    /// The expansion zone's skin tube at rest.
+    pub fn tube(&self) -> skin::membrane::TubeGeometry {
+        skin::membrane::TubeGeometry {
+            outer_diameter_mm: self.initial_diameter_mm,
+            wall_thickness_mm: self.skin_thickness_mm,
+            length_mm: self.expansion_length_mm,
+        }
+    }
+}
+
+/// `[skin]`: known Yeoh coefficients; absent = calibrate them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Skin {
+    /// Yeoh C10 (kPa).
+    pub c10_kpa: f64,
+    /// Yeoh C20 (kPa).
+    pub c20_kpa: f64,
+    /// Yeoh C30 (kPa).
+    pub c30_kpa: f64,
+}
+
+impl Skin {
+    /// These coefficients as the skin model's Yeoh law.
+    pub fn yeoh(&self) -> skin::Yeoh {
+        skin::Yeoh {
+            c10_kpa: self.c10_kpa,
+            c20_kpa: self.c20_kpa,
+            c30_kpa: self.c30_kpa,
+        }
+    }
+}
+
+/// `[sand]`: the granular bed; required when any run has `depth_mm > 0`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sand {
+    /// Mean grain radius (mm).
+    pub grain_radius_mm: f64,
+    /// Grain material density (kg/m^3).
+    pub grain_density_kg_m3: f64,
+    /// Pore volume fraction (0–1).
+    pub porosity: f64,
+    /// Inter-particle Coulomb friction coefficient.
+    pub friction: f64,
+}
+
+/// `[fluid]`: the water inside the actuator and in the pores.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Fluid {
+    /// Density (kg/m^3).
+    pub density_kg_m3: f64,
+    /// Water column above the sand surface (mm).
+    pub water_above_sand_mm: f64,
+}
+
+/// `[container]`: the box the sand is in; absent = a wide tank.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Container {
+    /// Inner width (mm).
+    pub width_mm: f64,
+    /// Inner length (mm).
+    pub length_mm: f64,
+}
+
+/// `[pump]`: the syringe.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pump {
+    /// Inner diameter of the syringe barrel (mm).
+    pub syringe_bore_mm: f64,
+}
+
+/// Where `pressure_kpa` comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PressureSource {
+    /// A pressure sensor on the water line.
+    LineSensor,
+    /// Piston force divided by the bore area (includes seal friction).
+    PistonForce,
+}
+
+impl PressureSource {
+    /// The spelling in `rig.toml`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PressureSource::LineSensor => "line_sensor",
+            PressureSource::PistonForce => "piston_force",
+        }
+    }
+}
+
+/// `[measurement]`: how pressure was measured.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Measurement {
+    /// Where `pressure_kpa` comes from.
+    pub pressure_source: PressureSource,
+    /// Standard deviation of one pressure reading (kPa), if known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pressure_noise_kpa: Option<f64>,
+}
+
+/// The physical set-up of `rig.toml`: what is known, not fitted. Field and
+/// section names are the file's keys.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Rig {
+    /// `[actuator]`.
+    pub actuator: Actuator,
+    /// `[skin]`, optional.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub skin: Option<Skin>,
+    /// `[sand]`, optional when every run is in free water.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sand: Option<Sand>,
+    /// `[fluid]`.
+    pub fluid: Fluid,
+    /// `[container]`, optional (absent = a wide tank).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub container: Option<Container>,
+    /// `[pump]`.
+    pub pump: Pump,
+    /// `[measurement]`.
+    pub measurement: Measurement,
+}
+
+/// One section of `rig.toml` as the format defines it.
+struct SectionSchema {
+    /// Section name.
+    name: &'static str,
+    /// Whether the section must be present.
+    required: bool,
+    /// Its keys, each with whether it must be present when the section is.
+    keys: &'static [(&'static str, bool)],
+}
+
+/// Every section and key `rig.toml` knows.
+const SCHEMA: &[SectionSchema] = &[
+    SectionSchema {
+        name: "actuator",
+        required: true,
+        keys: &[
+            ("initial_diameter_mm", true),
+            ("expansion_length_mm", true),
+            ("skin_thickness_mm", true),
+        ],
+    },
+    SectionSchema {
+        name: "skin",
+        required: false,
+        keys: &[("c10_kpa", true), ("c20_kpa", true), ("c30_kpa", true)],
+    },
+    SectionSchema {
+        name: "sand",
+        required: false,
+        keys: &[
+            ("grain_radius_mm", true),
+            ("grain_density_kg_m3", true),
+            ("porosity", true),
+            ("friction", true),
+        ],
+    },
+    SectionSchema {
+        name: "fluid",
+        required: true,
+        keys: &[("density_kg_m3", true), ("water_above_sand_mm", true)],
+    },
+    SectionSchema {
+        name: "container",
+        required: false,
+        keys: &[("width_mm", true), ("length_mm", true)],
+    },
+    SectionSchema {
+        name: "pump",
+        required: true,
+        keys: &[("syringe_bore_mm", true)],
+    },
+    SectionSchema {
+        name: "measurement",
+        required: true,
+        keys: &[("pressure_source", true), ("pressure_noise_kpa", false)],
+    },
+];
+
+/// Accepted range of a number, for messages and checks.
+#[derive(Clone, Copy)]
+enum Range {
+    /// > 0.
+    Positive,
+    /// ≥ 0.
+    NonNegative,
+    /// Strictly between 0 and 1.
+    Fraction,
+    /// Any finite value.
+    Finite,
+}
+
+impl Range {
+    fn accepts(self, v: f64) -> bool {
+        v.is_finite()
+            && match self {
+                Range::Positive => v > 0.0,
+                Range::NonNegative => v >= 0.0,
+                Range::Fraction => v > 0.0 && v < 1.0,
+                Range::Finite => true,
+            }
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            Range::Positive => "a finite number > 0",
+            Range::NonNegative => "a finite number ≥ 0",
+            Range::Fraction => "a number strictly between 0 and 1",
+            Range::Finite => "a finite number",
+        }
+    }
+}
+
+/// A parsed `rig.toml` with a way to name the line of any key.
+struct RigDoc<'a> {
+    file: &'a str,
+    text: &'a str,
+    values: toml::Table,
+    spans: toml::de::DeTable<'a>,
+}
+
+impl<'a> RigDoc<'a> {
+    fn parse(file: &'a str, text: &'a str) -> Result<Self, FormatError> {
+        let values: toml::Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| format_error(file, None, e.to_string().trim_end()))?;
+        let spans = toml::de::DeTable::parse(text)
+            .map_err(|e| format_error(file, None, e.to_string().trim_end()))?
+            .into_inner();
+        Ok(RigDoc {
+            file,
+            text,
+            values,
+            spans,
+        })
+    }
+
+    fn line_at(&self, offset: usize) -> u64 {
+        let before = self.text.get(..offset).unwrap_or(self.text);
+        before.bytes().filter(|&b| b == b'\n').count() as u64 + 1
+    }
+
+    /// Line of `[section]` (or of `key` inside it).
+    fn line(&self, section: &str, key: Option<&str>) -> Option<u64> {
+        let (sk, sv) = self.spans.iter().find(|(k, _)| k.get_ref() == section)?;
+        let Some(key) = key else {
+            return Some(self.line_at(sk.span().start));
+        };
+        let toml::de::DeValue::Table(t) = sv.get_ref() else {
+            return None;
+        };
+        let (kk, _) = t.iter().find(|(k, _)| k.get_ref() == key)?;
+        Some(self.line_at(kk.span().start))
+    }
+
+    fn err(&self, section: &str, key: Option<&str>, message: String) -> FormatError {
+        format_error(self.file, self.line(section, key), message)
+    }
+
+    fn section(&self, name: &str) -> Result<Option<&toml::Table>, FormatError> {
+        match self.values.get(name) {
+            None => Ok(None),
+            Some(toml::Value::Table(t)) => Ok(Some(t)),
+            Some(other) => Err(self.err(
+                name,
+                None,
+                format!(
+                    "`{name}` must be a section [{name}], found a {}",
+                    other.type_str()
+                ),
+            )),
+        }
+    }
+
+    fn require_section(&self, name: &str) -> Result<&toml::Table, FormatError> {
+        self.section(name)?
+            .ok_or_else(|| format_error(self.file, None, format!("missing section [{name}]")))
+    }
+
+    fn number(&self, section: &str, key: &str, range: Range) -> Result<f64, FormatError> {
+        self.optional_number(section, key, range)?
+            .ok_or_else(|| format_error(self.file, None, format!("missing key `{section}.{key}`")))
+    }
+
+    fn optional_number(
+        &self,
+        section: &str,
+        key: &str,
+        range: Range,
+    ) -> Result<Option<f64>, FormatError> {
+        let Some(value) = self.section(section)?.and_then(|t| t.get(key)) else {
+            return Ok(None);
+        };
+        let v = match value {
+            toml::Value::Float(f) => *f,
+            // Integers convert exactly up to 2^53, far beyond any quantity here.
+            toml::Value::Integer(i) => *i as f64,
+            other => {
+                return Err(self.err(
+                    section,
+                    Some(key),
+                    format!(
+                        "key `{section}.{key}`: expected a number, found a {} ({other})",
+                        other.type_str()
+                    ),
+                ))
+            }
+        };
+        if !range.accepts(v) {
+            return Err(self.err(
+                section,
+                Some(key),
+                format!("key `{section}.{key}`: {v} is not {}", range.describe()),
+            ));
+        }
+        Ok(Some(v))
+    }
+
+    fn pressure_source(&self) -> Result<PressureSource, FormatError> {
+        let (section, key) = ("measurement", "pressure_source");
+        let value = self.require_section(section)?.get(key).ok_or_else(|| {
+            format_error(self.file, None, format!("missing key `{section}.{key}`"))
+        })?;
+        match value.as_str() {
+            Some("line_sensor") => Ok(PressureSource::LineSensor),
+            Some("piston_force") => Ok(PressureSource::PistonForce),
+            _ => Err(self.err(
+                section,
+                Some(key),
+                format!(
+                    "key `{section}.{key}`: {value} is not \"line_sensor\" or \"piston_force\""
+                ),
+            )),
+        }
+    }
+
+    /// Unknown sections and keys, one warning each.
+    fn unknown_keys(&self) -> Vec<String> {
+        let mut warnings = Vec::new();
+        let at = |line: Option<u64>| match line {
+            Some(l) => format!("{} line {l}", self.file),
+            None => self.file.to_owned(),
+        };
+        for (name, value) in &self.values {
+            let Some(schema) = SCHEMA.iter().find(|s| s.name == name) else {
+                warnings.push(format!(
+                    "{}: unknown section or key `{name}` ignored",
+                    at(self.line(name, None))
+                ));
+                continue;
+            };
+            if let toml::Value::Table(t) = value {
+                for key in t.keys() {
+                    if !schema.keys.iter().any(|(k, _)| k == key) {
+                        warnings.push(format!(
+                            "{}: unknown key `{name}.{key}` ignored",
+                            at(self.line(name, Some(key)))
+                        ));
+                    }
+                }
+            }
+        }
+        warnings
+    }
+}
+
+impl Rig {
+    /// The skin's law: the `[skin]` coefficients, else the project's
+    /// default skin.
+    pub fn skin_law(&self) -> skin::Yeoh {
+        self.skin
+            .as_ref()
+            .map_or_else(skin::default_skin, Skin::yeoh)
+    }
+
+    /// The paper's set-up, as in the example of `shared/data-format.md`.
+    /// From the paper: D0 18.7 mm, 20 mm expansion zone, 1.75 mm skin, grain
+    /// radius 0.36 mm, grain density 2920 kg/m^3, friction 0.25, 180 mm of
+    /// water, the 40 × 200 mm box, the 29.21 mm syringe bore. Not in the
+    /// paper (the example's assumptions): the Yeoh coefficients, porosity
+    /// 0.40, water density 1025 kg/m^3, a line sensor with 0.03 kPa noise
+    /// (the paper's balloon test measured piston force).
+    pub fn paper_default() -> Rig {
+        Rig {
+            actuator: Actuator {
+                initial_diameter_mm: 18.7,
+                expansion_length_mm: 20.0,
+                skin_thickness_mm: 1.75,
+            },
+            skin: Some(Skin {
+                c10_kpa: 2.0,
+                c20_kpa: 0.0,
+                c30_kpa: 0.016,
+            }),
+            sand: Some(Sand {
+                grain_radius_mm: 0.36,
+                grain_density_kg_m3: 2920.0,
+                porosity: 0.40,
+                friction: 0.25,
+            }),
+            fluid: Fluid {
+                density_kg_m3: 1025.0,
+                water_above_sand_mm: 180.0,
+            },
+            container: Some(Container {
+                width_mm: 40.0,
+                length_mm: 200.0,
+            }),
+            pump: Pump {
+                syringe_bore_mm: 29.21,
+            },
+            measurement: Measurement {
+                pressure_source: PressureSource::LineSensor,
+                pressure_noise_kpa: Some(0.03),
+            },
+        }
+    }
+
+    /// Parses `rig.toml` text; `file` names it in errors. Returns the rig and
+    /// the warnings (unknown sections and keys). Whether `[sand]` is needed
+    /// depends on the runs, so [`Experiment::parse`] checks that.
+    pub fn parse(file: &str, text: &str) -> Result<(Rig, Vec<String>), FormatError> {
+        let doc = RigDoc::parse(file, text)?;
+        let warnings = doc.unknown_keys();
+        for schema in SCHEMA {
+            let section = schema.name;
+            let table = if schema.required {
+                Some(doc.require_section(section)?)
+            } else {
+                doc.section(section)?
+            };
+            // A present section must be complete, optional or not.
+            if let Some(table) = table {
+                for (key, needed) in schema.keys {
+                    if *needed && !table.contains_key(*key) {
+                        return Err(format_error(
+                            file,
+                            None,
+                            format!("missing key `{section}.{key}`"),
+                        ));
+                    }
+                }
+            }
+        }
+        use Range::*;
+        let rig = Rig {
+            actuator: Actuator {
+                initial_diameter_mm: doc.number("actuator", "initial_diameter_mm", Positive)?,
+                expansion_length_mm: doc.number("actuator", "expansion_length_mm", Positive)?,
+                skin_thickness_mm: doc.number("actuator", "skin_thickness_mm", Positive)?,
+            },
+            skin: match doc.section("skin")? {
+                None => None,
+                Some(_) => Some(Skin {
+                    c10_kpa: doc.number("skin", "c10_kpa", Finite)?,
+                    c20_kpa: doc.number("skin", "c20_kpa", Finite)?,
+                    c30_kpa: doc.number("skin", "c30_kpa", Finite)?,
+                }),
+            },
+            sand: match doc.section("sand")? {
+                None => None,
+                Some(_) => Some(Sand {
+                    grain_radius_mm: doc.number("sand", "grain_radius_mm", Positive)?,
+                    grain_density_kg_m3: doc.number("sand", "grain_density_kg_m3", Positive)?,
+                    porosity: doc.number("sand", "porosity", Fraction)?,
+                    friction: doc.number("sand", "friction", NonNegative)?,
+                }),
+            },
+            fluid: Fluid {
+                density_kg_m3: doc.number("fluid", "density_kg_m3", Positive)?,
+                water_above_sand_mm: doc.number("fluid", "water_above_sand_mm", NonNegative)?,
+            },
+            container: match doc.section("container")? {
+                None => None,
+                Some(_) => Some(Container {
+                    width_mm: doc.number("container", "width_mm", Positive)?,
+                    length_mm: doc.number("container", "length_mm", Positive)?,
+                }),
+            },
+            pump: Pump {
+                syringe_bore_mm: doc.number("pump", "syringe_bore_mm", Positive)?,
+            },
+            measurement: Measurement {
+                pressure_source: doc.pressure_source()?,
+                pressure_noise_kpa: doc.optional_number(
+                    "measurement",
+                    "pressure_noise_kpa",
+                    NonNegative,
+                )?,
+            },
+        };
+        let a = &rig.actuator;
+        if a.skin_thickness_mm >= a.initial_diameter_mm / 2.0 {
+            return Err(doc.err(
+                "actuator",
+                Some("skin_thickness_mm"),
+                format!(
+                    "key `actuator.skin_thickness_mm`: {} is not below half of \
+                     `actuator.initial_diameter_mm` ({})",
+                    a.skin_thickness_mm, a.initial_diameter_mm
+                ),
+            ));
+        }
+        Ok((rig, warnings))
+    }
+
+    /// Reads a `rig.toml` file on its own (e.g. a set-up given to a
+    /// converter); returns the rig and its warnings.
+    pub fn read(path: &Path) -> Result<(Rig, Vec<String>)> {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        Ok(Rig::parse(&name, &text)?)
+    }
+
+    /// Reads the set-up `path` names: a `rig.toml`, or the one in an
+    /// experiment folder. Returns the rig, the file it came from (for
+    /// errors and provenance) and its warnings.
+    pub fn read_setup(path: &Path) -> Result<(Rig, String, Vec<String>)> {
+        let file = if path.is_dir() {
+            path.join(RIG_FILE)
+        } else {
+            path.to_path_buf()
+        };
+        let (rig, warnings) = Rig::read(&file)?;
+        Ok((rig, file.display().to_string(), warnings))
+    }
+
+    /// The `rig.toml` text of this rig.
+    pub fn to_toml(&self) -> Result<String> {
+        toml::to_string_pretty(self).context("serializing rig.toml")
+    }
+}
+
+// ---------------------------------------------------------------------------
+// *.csv
+
+/// Columns every time-series file must have, in the order they are written.
+pub const REQUIRED_COLUMNS: [&str; 5] = ["run", "t_s", "depth_mm", "volume_ml", "pressure_kpa"];
+
+/// The optional column of the format.
+pub const DIAMETER_COLUMN: &str = "diameter_mm";
+
+/// One row of a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sample {
+    /// Time since the start of the run (s).
+    pub t_s: f64,
+    /// Net volume pushed by the pump since the run started (mL).
+    pub volume_ml: f64,
+    /// Gauge pressure as measured by `measurement.pressure_source` (kPa).
+    pub pressure_kpa: f64,
+    /// Measured outer diameter of the expansion zone (mm), where known.
+    pub diameter_mm: Option<f64>,
+    /// Values of [`Experiment::extra_columns`], same order, as text (empty
+    /// where a file lacked the column).
+    pub extra: Vec<String>,
+}
+
+/// One continuous recording at one depth.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Run {
+    /// Run id, unique within the folder.
+    pub id: String,
+    /// Sand cover above the actuator axis (mm); 0 = free in water.
+    pub depth_mm: f64,
+    /// Rows in strictly increasing time.
+    pub samples: Vec<Sample>,
+}
+
+/// An experiment folder in memory.
+#[derive(Clone, Debug)]
+pub struct Experiment {
+    /// The set-up.
+    pub rig: Rig,
+    /// Runs in the order they appear (files sorted by name).
+    pub runs: Vec<Run>,
+    /// Columns outside the format, kept as text in [`Sample::extra`].
+    pub extra_columns: Vec<String>,
+    /// What reading found odd but accepted (unknown keys, columns…). Not
+    /// data: ignored by `==`.
+    pub warnings: Vec<String>,
+}
+
+impl PartialEq for Experiment {
+    fn eq(&self, other: &Self) -> bool {
+        self.rig == other.rig
+            && self.runs == other.runs
+            && self.extra_columns == other.extra_columns
+    }
+}
+
+/// Where each run came from, to name it in later errors.
+struct RunOrigin {
+    file: String,
+    first_line: u64,
+    last_line: u64,
+}
+
+/// Collects runs across files, enforcing contiguity and uniqueness.
+#[derive(Default)]
+struct RunCollector {
+    runs: Vec<Run>,
+    origins: Vec<RunOrigin>,
+    index: BTreeMap<String, usize>,
+    extra_columns: Vec<String>,
+    warnings: Vec<String>,
+}
+
+/// Column positions of one file's header.
+struct Header {
+    required: [usize; 5],
+    diameter: Option<usize>,
+    /// (index in the file, index in `extra_columns`).
+    extra: Vec<(usize, usize)>,
+}
+
+impl RunCollector {
+    fn header(&mut self, file: &str, names: &csv::StringRecord) -> Result<Header, FormatError> {
+        let mut seen: BTreeMap<&str, usize> = BTreeMap::new();
+        for (i, name) in names.iter().enumerate() {
+            if name.is_empty() {
+                return Err(format_error(
+                    file,
+                    Some(1),
+                    format!("column {} has no name", i + 1),
+                ));
+            }
+            if seen.insert(name, i).is_some() {
+                return Err(format_error(
+                    file,
+                    Some(1),
+                    format!("column `{name}` appears twice"),
+                ));
+            }
+        }
+        let mut required = [0; 5];
+        for (slot, column) in required.iter_mut().zip(REQUIRED_COLUMNS) {
+            *slot = *seen
+                .get(column)
+                .ok_or_else(|| format_error(file, Some(1), format!("missing column `{column}`")))?;
+        }
+        let mut extra = Vec::new();
+        for (i, name) in names.iter().enumerate() {
+            if REQUIRED_COLUMNS.contains(&name) || name == DIAMETER_COLUMN {
+                continue;
+            }
+            self.warnings.push(format!(
+                "{file} line 1: column `{name}` is not in the format; kept as text, ignored by the tools"
+            ));
+            let slot = match self.extra_columns.iter().position(|c| c == name) {
+                Some(slot) => slot,
+                None => {
+                    self.extra_columns.push(name.to_owned());
+                    for sample in self.runs.iter_mut().flat_map(|r| r.samples.iter_mut()) {
+                        sample.extra.push(String::new());
+                    }
+                    self.extra_columns.len() - 1
+                }
+            };
+            extra.push((i, slot));
+        }
+        Ok(Header {
+            required,
+            diameter: seen.get(DIAMETER_COLUMN).copied(),
+            extra,
+        })
+    }
+
+    fn file(&mut self, file: &str, text: &str) -> Result<(), FormatError> {
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .trim(csv::Trim::All)
+            .from_reader(text.as_bytes());
+        let names = reader.headers().map_err(|e| csv_error(file, &e))?.clone();
+        let header = self.header(file, &names)?;
+        // Which run this file is filling, as an index into `runs`.
+        let mut current: Option<usize> = None;
+        let mut rows = 0usize;
+        for record in reader.records() {
+            let record = record.map_err(|e| csv_error(file, &e))?;
+            let line = record.position().map_or(0, |p| p.line());
+            rows += 1;
+            let field = |column: usize| record.get(column).unwrap_or("");
+            let number = |slot: usize| -> Result<f64, FormatError> {
+                parse_number(
+                    file,
+                    line,
+                    REQUIRED_COLUMNS[slot],
+                    field(header.required[slot]),
+                )
+            };
+            let id = field(header.required[0]);
+            if id.is_empty() {
+                return Err(format_error(file, Some(line), "column `run`: empty run id"));
+            }
+            let t_s = number(1)?;
+            let depth_mm = number(2)?;
+            let sample = Sample {
+                t_s,
+                volume_ml: number(3)?,
+                pressure_kpa: number(4)?,
+                diameter_mm: match header.diameter.map(field) {
+                    None | Some("") => None,
+                    Some(text) => Some(parse_number(file, line, DIAMETER_COLUMN, text)?),
+                },
+                extra: {
+                    let mut extra = vec![String::new(); self.extra_columns.len()];
+                    for &(column, slot) in &header.extra {
+                        if let Some(v) = extra.get_mut(slot) {
+                            *v = field(column).to_owned();
+                        }
+                    }
+                    extra
+                },
+            };
+            if t_s < 0.0 {
+                return Err(format_error(
+                    file,
+                    Some(line),
+                    format!("column `t_s`: {t_s} is negative (time since the start of the run)"),
+                ));
+            }
+            if depth_mm < 0.0 {
+                return Err(format_error(
+                    file,
+                    Some(line),
+                    format!("column `depth_mm`: {depth_mm} is negative"),
+                ));
+            }
+            if let Some(d) = sample.diameter_mm {
+                if d <= 0.0 {
+                    return Err(format_error(
+                        file,
+                        Some(line),
+                        format!("column `{DIAMETER_COLUMN}`: {d} is not > 0"),
+                    ));
+                }
+            }
+            let same_run = current.is_some_and(|i| self.runs.get(i).is_some_and(|r| r.id == id));
+            let index = if same_run {
+                current.unwrap_or_default()
+            } else {
+                self.start_run(file, line, id, depth_mm)?
+            };
+            current = Some(index);
+            let (Some(run), Some(origin)) = (self.runs.get_mut(index), self.origins.get_mut(index))
+            else {
+                continue;
+            };
+            if depth_mm != run.depth_mm {
+                return Err(format_error(
+                    file,
+                    Some(line),
+                    format!(
+                        "column `depth_mm`: {depth_mm} differs from the depth {} of run `{id}` \
+                         (line {}); depth must be constant within a run",
+                        run.depth_mm, origin.first_line
+                    ),
+                ));
+            }
+            if let Some(prev) = run.samples.last() {
+                if t_s <= prev.t_s {
+                    return Err(format_error(
+                        file,
+                        Some(line),
+                        format!(
+                            "column `t_s`: {t_s} is not after {} (line {}); rows of run `{id}` \
+                             must be in increasing time",
+                            prev.t_s, origin.last_line
+                        ),
+                    ));
+                }
+            }
+            run.samples.push(sample);
+            origin.last_line = line;
+        }
+        if rows == 0 {
+            self.warnings.push(format!("{file}: no rows"));
+        }
+        Ok(())
+    }
+
+    fn start_run(
+        &mut self,
+        file: &str,
+        line: u64,
+        id: &str,
+        depth_mm: f64,
+    ) -> Result<usize, FormatError> {
+        if let Some(origin) = self.index.get(id).and_then(|&i| self.origins.get(i)) {
+            let message = if origin.file == file {
+                format!(
+                    "run `{id}` continues after other rows (it ran from line {} to {}); \
+                     the rows of a run must be contiguous",
+                    origin.first_line, origin.last_line
+                )
+            } else {
+                format!(
+                    "run `{id}` already appeared in {} (lines {}–{}); a run id must be unique \
+                     within the folder and a run may not be split across files",
+                    origin.file, origin.first_line, origin.last_line
+                )
+            };
+            return Err(format_error(file, Some(line), message));
+        }
+        self.runs.push(Run {
+            id: id.to_owned(),
+            depth_mm,
+            samples: Vec::new(),
+        });
+        self.origins.push(RunOrigin {
+            file: file.to_owned(),
+            first_line: line,
+            last_line: line,
+        });
+        let index = self.runs.len() - 1;
+        self.index.insert(id.to_owned(), index);
+        Ok(index)
+    }
+}
+
+fn parse_number(file: &str, line: u64, column: &str, text: &str) -> Result<f64, FormatError> {
+    if text.is_empty() {
+        return Err(format_error(
+            file,
+            Some(line),
+            format!("column `{column}`: empty"),
+        ));
+    }
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(format_error(
+            file,
+            Some(line),
+            format!("column `{column}`: `{text}` is not a finite number"),
+        )),
+        Err(_) => Err(format_error(
+            file,
+            Some(line),
+            format!("column `{column}`: `{text}` is not a number"),
+        )),
+    }
+}
+
+fn csv_error(file: &str, e: &csv::Error) -> FormatError {
+    let line = e.position().map(|p| p.line());
+    let message = match e.kind() {
+        csv::ErrorKind::UnequalLengths {
+            expected_len, len, ..
+        } => format!("{len} fields, but the header has {expected_len}"),
+        csv::ErrorKind::Utf8 { .. } => "not valid UTF-8".to_owned(),
+        _ => e.to_string(),
+    };
+    format_error(file, line, message)
+}
+
+impl Experiment {
+    /// An experiment with no extra columns and no warnings.
+    pub fn new(rig: Rig, runs: Vec<Run>) -> Experiment {
+        Experiment {
+            rig,
+            runs,
+            extra_columns: Vec::new(),
+            warnings: Vec::new(),
+        }
+    }
+
+    /// The run named `id`, if any.
+    pub fn run(&self, id: &str) -> Option<&Run> {
+        self.runs.iter().find(|r| r.id == id)
+    }
+
+    /// Parses a folder given as text: `rig.toml` and the CSV files as
+    /// (name, text) in the order to read them. Names appear in errors.
+    pub fn parse(rig_toml: &str, csv_files: &[(&str, &str)]) -> Result<Experiment, FormatError> {
+        let (rig, mut warnings) = Rig::parse(RIG_FILE, rig_toml)?;
+        let mut collector = RunCollector::default();
+        for (name, text) in csv_files {
+            collector.file(name, text)?;
+        }
+        warnings.append(&mut collector.warnings);
+        if collector.runs.is_empty() {
+            let names: Vec<&str> = csv_files.iter().map(|(n, _)| *n).collect();
+            let file = if names.is_empty() {
+                "*.csv".to_owned()
+            } else {
+                names.join(", ")
+            };
+            return Err(format_error(
+                &file,
+                None,
+                "no samples: the folder holds no run",
+            ));
+        }
+        if rig.sand.is_none() {
+            let buried = collector
+                .runs
+                .iter()
+                .zip(&collector.origins)
+                .find(|(r, _)| r.depth_mm > 0.0);
+            if let Some((run, origin)) = buried {
+                return Err(format_error(
+                    RIG_FILE,
+                    None,
+                    format!(
+                        "missing section [sand], required because run `{}` ({} line {}) has \
+                         depth_mm = {}",
+                        run.id, origin.file, origin.first_line, run.depth_mm
+                    ),
+                ));
+            }
+        }
+        Ok(Experiment {
+            rig,
+            runs: collector.runs,
+            extra_columns: collector.extra_columns,
+            warnings,
+        })
+    }
+
+    /// Reads an experiment folder: `rig.toml` and every `*.csv` in it,
+    /// sorted by file name.
+    pub fn read(dir: &Path) -> Result<Experiment> {
+        let context = || format!("experiment folder {}", dir.display());
+        let rig_path = dir.join(RIG_FILE);
+        let rig_text = std::fs::read_to_string(&rig_path)
+            .with_context(|| format!("reading {}", rig_path.display()))
+            .with_context(context)?;
+        let mut csv_files = Vec::new();
+        for name in csv_names(dir).with_context(context)? {
+            let path = dir.join(&name);
+            let bytes =
+                std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+            let text = String::from_utf8(bytes).map_err(|e| {
+                let valid = e.utf8_error().valid_up_to();
+                let line = e.as_bytes()[..valid]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count()
+                    + 1;
+                format_error(&name, Some(line as u64), "not valid UTF-8")
+            });
+            csv_files.push((name, text.with_context(context)?));
+        }
+        let files: Vec<(&str, &str)> = csv_files
+            .iter()
+            .map(|(n, t)| (n.as_str(), t.as_str()))
+            .collect();
+        Experiment::parse(&rig_text, &files).with_context(context)
+    }
+
+    /// The `runs.csv` text: the required columns, `diameter_mm` when any
+    /// sample has one, then the extra columns. Numbers use Rust's shortest
+    /// round-trip form, so reading gives back the same `f64` bits.
+    pub fn to_csv(&self) -> Result<String> {
+        let with_diameter = self
+            .runs
+            .iter()
+            .flat_map(|r| &r.samples)
+            .any(|s| s.diameter_mm.is_some());
+        let mut writer = csv::Writer::from_writer(Vec::new());
+        let mut header: Vec<&str> = REQUIRED_COLUMNS.to_vec();
+        if with_diameter {
+            header.push(DIAMETER_COLUMN);
+        }
+        header.extend(self.extra_columns.iter().map(String::as_str));
+        writer.write_record(&header)?;
+        for run in &self.runs {
+            for s in &run.samples {
+                let mut row = vec![
+                    run.id.clone(),
+                    s.t_s.to_string(),
+                    run.depth_mm.to_string(),
+                    s.volume_ml.to_string(),
+                    s.pressure_kpa.to_string(),
+                ];
+                if with_diameter {
+                    row.push(s.diameter_mm.map(|d| d.to_string()).unwrap_or_default());
+                }
+                anyhow::ensure!(
+                    s.extra.len() == self.extra_columns.len(),
+                    "run `{}` at t = {} s has {} extra values for {} extra columns",
+                    run.id,
+                    s.t_s,
+                    s.extra.len(),
+                    self.extra_columns.len()
+                );
+                row.extend(s.extra.iter().cloned());
+                writer.write_record(&row)?;
+            }
+        }
+        let bytes = writer.into_inner().context("writing CSV")?;
+        String::from_utf8(bytes).context("CSV is UTF-8")
+    }
+
+    /// Writes `rig.toml` and `runs.csv` into `dir` (each atomically). Refuses
+    /// anything that would not read back identically, and a folder holding
+    /// other `*.csv` files (they would be read together with `runs.csv`).
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        let rig_text = self.rig.to_toml()?;
+        let csv_text = self.to_csv()?;
+        let again = Experiment::parse(&rig_text, &[(RUNS_FILE, &csv_text)])
+            .context("refusing to write an experiment that does not read back")?;
+        anyhow::ensure!(
+            again == *self,
+            "refusing to write: the experiment would not read back identically (run ids with \
+             surrounding spaces, or extra columns named like format columns?)"
+        );
+        if dir.exists() {
+            let others: Vec<String> = csv_names(dir)?
+                .into_iter()
+                .filter(|n| n != RUNS_FILE)
+                .collect();
+            anyhow::ensure!(
+                others.is_empty(),
+                "refusing to write into {}: it holds other CSV files ({}) that would be read \
+                 as part of the experiment",
+                dir.display(),
+                others.join(", ")
+            );
+        }
+        write_atomic(&dir.join(RIG_FILE), rig_text.as_bytes())?;
+        write_atomic(&dir.join(RUNS_FILE), csv_text.as_bytes())?;
+        Ok(())
+    }
+}
+
+/// Names of the `*.csv` files directly in `dir`, sorted.
+fn csv_names(dir: &Path) -> Result<Vec<String>> {
+    let mut names = Vec::new();
+    for entry in std::fs::read_dir(dir).with_context(|| format!("listing {}", dir.display()))? {
+        let entry = entry.with_context(|| format!("listing {}", dir.display()))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let is_file = entry.file_type().map(|t| !t.is_dir()).unwrap_or(false);
+        if is_file && name.ends_with(".csv") {
+            names.push(name);
+        }
+    }
+    names.sort();
+    Ok(names)
+}

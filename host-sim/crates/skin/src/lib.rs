@@ -1,0 +1,228 @@
+//! The actuator's skin: incompressible isotropic hyperelastic laws, their
+//! fit to uniaxial tests, and the inflation of the skin tube.
+//!
+//! Shape (after felupe): one small struct per strain energy
+//! ([`NeoHookean`], [`MooneyRivlin`], [`Yeoh`]), each giving W(I1, I2) and
+//! its first and second derivatives; the [`StrainEnergy`] trait derives the
+//! stresses of every homogeneous test (uniaxial, equibiaxial, planar) once
+//! from those derivatives. [`LAWS`] is the registry the fitter iterates: a
+//! new law is one file plus one row there.
+//!
+//! All three laws are linear in their coefficients, so fitting is ordinary
+//! linear least squares ([`fit`]).
+//!
+//! - [`uniaxial`]: reading a tensile test (`shared/data-format.md`);
+//! - [`fit`]: least-squares fit, standard errors, Drucker stability scan;
+//! - [`plot`]: the SVG of data and fits;
+//! - [`report`]: the `fit-skin` command's library side (read, fit, write);
+//! - [`membrane`]: thick-walled tube inflation, pressure vs diameter;
+//! - [`unicinctus`]: the synthetic *U. unicinctus* data set and the default
+//!   skin fitted to it.
+
+pub mod fit;
+pub mod membrane;
+pub mod mooney_rivlin;
+pub mod neo_hookean;
+pub mod plot;
+pub mod report;
+pub mod uniaxial;
+pub mod unicinctus;
+pub mod yeoh;
+
+pub use mooney_rivlin::MooneyRivlin;
+pub use neo_hookean::NeoHookean;
+pub use yeoh::Yeoh;
+
+/// The strain-energy interface, defined by the FEM kernel that consumes
+/// it and implemented by every law here.
+pub use fem::StrainEnergy;
+
+/// One row of the law registry: what the fitter needs to know about a law.
+#[derive(Clone, Copy, Debug)]
+pub struct LawSpec {
+    /// Name shown in tables, plots and JSON.
+    pub name: &'static str,
+    /// Coefficient names, in fitting order (all in kPa).
+    pub parameter_names: &'static [&'static str],
+    /// Builds the law from coefficients (kPa) in that order; `None` when
+    /// the count is wrong.
+    pub from_parameters_kpa: fn(&[f64]) -> Option<Box<dyn StrainEnergy>>,
+}
+
+impl LawSpec {
+    /// Looks a law up in [`LAWS`] by name.
+    pub fn by_name(name: &str) -> Option<&'static LawSpec> {
+        LAWS.iter().find(|l| l.name == name)
+    }
+}
+
+/// Every law the fitter knows, simplest first. The stresses of each are
+/// linear in its coefficients, which the least-squares fit relies on (and a
+/// test checks for each row).
+pub static LAWS: [LawSpec; 3] = [NeoHookean::SPEC, MooneyRivlin::SPEC, Yeoh::SPEC];
+
+/// Invariants (I1, I2) of C for principal stretches `stretches`.
+pub fn invariants(stretches: [f64; 3]) -> (f64, f64) {
+    let [a, b, c] = stretches.map(|l| l * l);
+    (a + b + c, a * b + b * c + c * a)
+}
+
+/// The skin the tables and solver use by default: the Yeoh fit to the
+/// synthetic *U. unicinctus* circumferential data (see [`unicinctus`]).
+pub fn default_skin() -> Yeoh {
+    unicinctus::DEFAULT_YEOH
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A set of coefficients for each law that keeps every derivative
+    /// nonzero, so the checks below are not trivially satisfied.
+    fn sample_laws() -> Vec<Box<dyn StrainEnergy>> {
+        let params: [&[f64]; 3] = [&[150.0], &[120.0, 35.0], &[180.0, -4.0, 0.15]];
+        LAWS.iter()
+            .zip(params)
+            .map(|(spec, p)| (spec.from_parameters_kpa)(p).unwrap())
+            .collect()
+    }
+
+    fn fd(f: impl Fn(f64) -> f64, x: f64) -> f64 {
+        let h = 1e-5 * x.abs().max(1.0);
+        (f(x + h) - f(x - h)) / (2.0 * h)
+    }
+
+    fn close(a: f64, b: f64, rel: f64, what: &str) {
+        assert!(
+            (a - b).abs() <= rel * a.abs().max(b.abs()).max(1e-9),
+            "{what}: {a} vs {b}"
+        );
+    }
+
+    #[test]
+    fn registry_names_and_counts_match_the_laws() {
+        for (spec, law) in LAWS.iter().zip(sample_laws()) {
+            assert_eq!(law.name(), spec.name);
+            assert_eq!(law.parameters_kpa().len(), spec.parameter_names.len());
+            assert!((spec.from_parameters_kpa)(&[1.0; 7]).is_none());
+            assert_eq!(LawSpec::by_name(spec.name).unwrap().name, spec.name);
+        }
+    }
+
+    #[test]
+    fn first_and_second_derivatives_match_finite_differences() {
+        for law in sample_laws() {
+            for (i1, i2) in [(3.0, 3.0), (3.7, 3.4), (9.0, 14.0), (25.0, 11.0)] {
+                let n = law.name();
+                close(
+                    law.dw_di1_kpa(i1, i2),
+                    fd(|x| law.energy_kpa(x, i2), i1),
+                    1e-7,
+                    n,
+                );
+                close(
+                    law.dw_di2_kpa(i1, i2),
+                    fd(|x| law.energy_kpa(i1, x), i2),
+                    1e-7,
+                    n,
+                );
+                close(
+                    law.d2w_di1_di1_kpa(i1, i2),
+                    fd(|x| law.dw_di1_kpa(x, i2), i1),
+                    1e-6,
+                    n,
+                );
+                close(
+                    law.d2w_di1_di2_kpa(i1, i2),
+                    fd(|x| law.dw_di1_kpa(i1, x), i2),
+                    1e-6,
+                    n,
+                );
+                close(
+                    law.d2w_di1_di2_kpa(i1, i2),
+                    fd(|x| law.dw_di2_kpa(x, i2), i1),
+                    1e-6,
+                    n,
+                );
+                close(
+                    law.d2w_di2_di2_kpa(i1, i2),
+                    fd(|x| law.dw_di2_kpa(i1, x), i2),
+                    1e-6,
+                    n,
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn homogeneous_stresses_are_the_derivative_of_the_energy_along_the_path() {
+        // Incompressible homogeneous tests: the work-conjugate nominal stress
+        // is dW/dλ along the path, independently of the formulas above.
+        for law in sample_laws() {
+            let path_uni = |l: f64| invariants([l, l.powf(-0.5), l.powf(-0.5)]);
+            let path_bi = |l: f64| invariants([l, l, l.powi(-2)]);
+            let path_pl = |l: f64| invariants([l, 1.0, 1.0 / l]);
+            for l in [0.4, 0.8, 1.3, 2.0, 4.5] {
+                let w = |p: (f64, f64)| law.energy_kpa(p.0, p.1);
+                let n = law.name();
+                close(
+                    law.uniaxial_nominal_kpa(l),
+                    fd(|x| w(path_uni(x)), l),
+                    1e-6,
+                    n,
+                );
+                // Equibiaxial: two loaded directions share the work.
+                close(
+                    law.equibiaxial_nominal_kpa(l),
+                    0.5 * fd(|x| w(path_bi(x)), l),
+                    1e-6,
+                    n,
+                );
+                close(law.planar_nominal_kpa(l), fd(|x| w(path_pl(x)), l), 1e-6, n);
+                close(
+                    law.uniaxial_nominal_slope_kpa(l),
+                    fd(|x| law.uniaxial_nominal_kpa(x), l),
+                    1e-6,
+                    n,
+                );
+                close(
+                    law.uniaxial_cauchy_slope_kpa(l),
+                    fd(|x| law.uniaxial_cauchy_kpa(x), l),
+                    1e-6,
+                    n,
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn small_strain_limit_gives_youngs_modulus_three_mu() {
+        for law in sample_laws() {
+            let mu = law.shear_modulus_kpa();
+            // dP/dλ at λ = 1 is E = 3μ for an incompressible solid.
+            close(
+                law.uniaxial_nominal_slope_kpa(1.0),
+                3.0 * mu,
+                1e-12,
+                law.name(),
+            );
+            assert_eq!(law.uniaxial_nominal_kpa(1.0), 0.0);
+        }
+    }
+
+    #[test]
+    fn stresses_are_linear_in_the_coefficients() {
+        // The fitter's assumption, checked for every registered law.
+        for spec in &LAWS {
+            let n = spec.parameter_names.len();
+            let a: Vec<f64> = (0..n).map(|k| 10.0 + 3.0 * k as f64).collect();
+            let b: Vec<f64> = (0..n).map(|k| -2.0 + 0.7 * k as f64).collect();
+            let sum: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 2.0 * x + y).collect();
+            let [la, lb, ls] = [a, b, sum].map(|p| (spec.from_parameters_kpa)(&p).unwrap());
+            for l in [0.6, 1.5, 3.0, 7.0] {
+                let want = 2.0 * la.uniaxial_nominal_kpa(l) + lb.uniaxial_nominal_kpa(l);
+                close(ls.uniaxial_nominal_kpa(l), want, 1e-12, spec.name);
+            }
+        }
+    }
+}

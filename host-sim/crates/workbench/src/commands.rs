@@ -1,0 +1,494 @@
+//! The library side of `host-sim compare`, `diagnose` and `ledger`: read
+//! the folder, calibrate, analyse, write results (atomically) into the
+//! folder — `model.toml`, `ledger.json`, and plots and JSON under
+//! `workbench/` (a subfolder, so no result is mistaken for measurements).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use serde::Serialize;
+
+use super::calibrate::{Fit, FitOptions, FittedParam};
+use super::dataset::{Dataset, MAX_FIT_SAMPLES};
+use super::diagnose::{diagnose, fit_effects, noise_floor, DiagnoseOptions, Diagnosis};
+use super::model_file::{append_ledger, read_ledger, LedgerEntry, ModelFile};
+use super::plot::{chart_svg, Series};
+use super::residuals::{analyse, residual, ResidualReport};
+use atomic_file::write_atomic;
+use model::effects::EffectInstance;
+use model::{Params, RigBasis};
+use rig::Experiment;
+
+/// Subfolder of the experiment folder for the workbench's outputs.
+pub const OUTPUT_DIR: &str = "workbench";
+
+/// What `compare` found.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    /// Effects in the model compared (from model.toml; none = baseline).
+    pub effects: Vec<String>,
+    /// Calibrated parameters.
+    pub params: Vec<FittedParam>,
+    /// The residual.
+    pub residual: ResidualReport,
+    /// Noise floor (kPa) and its source.
+    pub noise_floor_kpa: f64,
+    /// Where the noise floor came from.
+    pub noise_floor_source: String,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+fn read(dir: &Path) -> Result<Experiment> {
+    Experiment::read(dir)
+}
+
+fn calibrated(exp: &Experiment, effects: Vec<EffectInstance>) -> Result<(Fit, Dataset)> {
+    let basis = RigBasis::new(&exp.rig)?;
+    let all = Dataset::new(exp);
+    anyhow::ensure!(!all.is_empty(), "the experiment has no samples");
+    let data = all.thinned(MAX_FIT_SAMPLES);
+    let fit = fit_effects(
+        &basis,
+        &data,
+        Params::default(),
+        effects,
+        FitOptions::default(),
+    )?;
+    Ok((fit, all))
+}
+
+fn file_safe(id: &str) -> String {
+    id.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// `host-sim compare DIR`: calibrates the model of `model.toml` (the
+/// baseline without one), analyses the residual, writes
+/// `workbench/compare.json`, one `run-<id>.svg` per run (measured and
+/// model vs time) and `residual-vs-<input>.svg` per input.
+pub fn compare(dir: &Path) -> Result<Comparison> {
+    let exp = read(dir)?;
+    let effects = match ModelFile::read(dir)? {
+        Some(m) => m.instances()?,
+        None => Vec::new(),
+    };
+    let (fit, all) = calibrated(&exp, effects)?;
+    let model = fit.model()?;
+    let (r, preds) = residual(&all, &model);
+    let report = analyse(&all, &r, &preds);
+    let (noise, source) = noise_floor(&exp, &all, &r);
+    let out = dir.join(OUTPUT_DIR);
+    let mut files = Vec::new();
+    for (i, run) in all.runs.iter().enumerate() {
+        let span = all.offsets[i]..all.offsets[i + 1];
+        let measured: Vec<(f64, f64)> = run
+            .samples
+            .iter()
+            .map(|s| (s.t_s, s.pressure_kpa))
+            .collect();
+        let modelled: Vec<(f64, f64)> = run
+            .samples
+            .iter()
+            .zip(&preds[span])
+            .map(|(s, p)| (s.t_s, p.sensor_kpa))
+            .collect();
+        let svg = chart_svg(
+            &format!(
+                "run {} (depth {} mm): measured vs model",
+                run.id, run.depth_mm
+            ),
+            "time (s)",
+            "pressure (kPa)",
+            &[
+                Series {
+                    label: "measured",
+                    points: &measured,
+                    line: true,
+                },
+                Series {
+                    label: "model",
+                    points: &modelled,
+                    line: true,
+                },
+            ],
+        )?;
+        let path = out.join(format!("run-{}.svg", file_safe(&run.id)));
+        write_atomic(&path, svg.as_bytes())?;
+        files.push(path);
+    }
+    let samples = || all.runs.iter().flat_map(|r| r.samples.iter());
+    let inputs: [(&str, &str, Vec<f64>); 5] = [
+        (
+            "time",
+            "time since run start (s)",
+            samples().map(|s| s.t_s).collect(),
+        ),
+        (
+            "volume",
+            "pump volume (mL)",
+            samples().map(|s| s.volume_ml).collect(),
+        ),
+        (
+            "flow",
+            "pump flow (mL/s)",
+            preds.iter().map(|p| p.pump_flow_ml_s).collect(),
+        ),
+        (
+            "pressure",
+            "model reading (kPa)",
+            preds.iter().map(|p| p.sensor_kpa).collect(),
+        ),
+        (
+            "depth",
+            "depth (mm)",
+            all.run_of.iter().map(|&i| all.runs[i].depth_mm).collect(),
+        ),
+    ];
+    for (name, label, x) in inputs {
+        let pts: Vec<(f64, f64)> = x.iter().copied().zip(r.iter().copied()).collect();
+        let svg = chart_svg(
+            &format!("residual (measured − model) vs {name}"),
+            label,
+            "residual (kPa)",
+            &[Series {
+                label: "residual",
+                points: &pts,
+                line: false,
+            }],
+        )?;
+        let path = out.join(format!("residual-vs-{name}.svg"));
+        write_atomic(&path, svg.as_bytes())?;
+        files.push(path);
+    }
+    let cmp = Comparison {
+        effects: fit
+            .space
+            .effects
+            .iter()
+            .map(|e| e.spec.name.to_owned())
+            .collect(),
+        params: fit.params.clone(),
+        residual: report,
+        noise_floor_kpa: noise,
+        noise_floor_source: source,
+        files: files.clone(),
+    };
+    let path = out.join("compare.json");
+    write_atomic(&path, serde_json::to_string_pretty(&cmp)?.as_bytes())?;
+    let mut cmp = cmp;
+    cmp.files.push(path);
+    Ok(cmp)
+}
+
+/// What `diagnose` did.
+#[derive(Debug)]
+pub enum DiagnoseOutcome {
+    /// The full diagnosis (written to `workbench/diagnosis.json`).
+    Diagnosis(Box<Diagnosis>),
+    /// `--add`: the refitted model and the ledger after it.
+    Added {
+        /// The new model file.
+        model: ModelFile,
+        /// The fit.
+        params: Vec<FittedParam>,
+        /// The whole ledger, newest last.
+        ledger: Vec<LedgerEntry>,
+    },
+}
+
+fn now_s() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs())
+}
+
+/// Refits `effects`, writes model.toml at the next version and appends
+/// the ledger.
+fn refit_and_record(
+    dir: &Path,
+    exp: &Experiment,
+    effects: Vec<EffectInstance>,
+    version: u32,
+) -> Result<DiagnoseOutcome> {
+    let (fit, all) = calibrated(exp, effects)?;
+    let (r, _) = residual(&all, &fit.model()?);
+    let rmse = (r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt();
+    let (noise, _) = noise_floor(exp, &all, &r);
+    let model = ModelFile::of_fit(&fit, version);
+    model.write(dir)?;
+    let ledger = append_ledger(
+        dir,
+        LedgerEntry {
+            version,
+            effects: model.effects.clone(),
+            rmse_kpa: rmse,
+            bic: fit.bic(),
+            free_params: fit.k(),
+            noise_floor_kpa: noise,
+            unix_time_s: now_s(),
+        },
+    )?;
+    Ok(DiagnoseOutcome::Added {
+        model,
+        params: fit.params,
+        ledger,
+    })
+}
+
+/// `host-sim diagnose DIR [--add EFFECT]`. Without `add`: the full
+/// diagnosis, written to `workbench/diagnosis.json`; a hand-edited
+/// model.toml (effects unlike the ledger's last entry), or a folder with no
+/// ledger yet, is refitted and recorded first. With `add`: the effect joins
+/// model.toml's, the model is refitted, and the ledger gets the new version.
+pub fn diagnose_folder(
+    dir: &Path,
+    add: Option<&str>,
+    options: &DiagnoseOptions,
+) -> Result<DiagnoseOutcome> {
+    let exp = read(dir)?;
+    let current = ModelFile::read(dir)?.unwrap_or_default();
+    let ledger = read_ledger(dir)?;
+    if let Some(name) = add {
+        let mut file = current.clone();
+        anyhow::ensure!(
+            !file.effects.iter().any(|e| e == name),
+            "effect `{name}` is already in {}",
+            super::model_file::MODEL_FILE
+        );
+        file.effects.push(name.to_owned());
+        let effects = file.instances().with_context(|| format!("--add {name}"))?;
+        if let Some(why) = (effects.last().map(|e| e.spec.not_applicable)).and_then(|f| f(&exp.rig))
+        {
+            anyhow::bail!("effect `{name}` cannot act in this rig: {why}");
+        }
+        let version = ledger
+            .iter()
+            .map(|e| e.version)
+            .max()
+            .map_or(current.version, |v| v.max(current.version))
+            + 1;
+        return refit_and_record(dir, &exp, effects, version);
+    }
+    let recorded = ledger.last().map(|e| e.effects.clone());
+    if recorded.as_ref() != Some(&current.effects) {
+        let version = ledger
+            .iter()
+            .map(|e| e.version + 1)
+            .max()
+            .unwrap_or(current.version);
+        refit_and_record(dir, &exp, current.instances()?, version)?;
+    }
+    let d = diagnose(&exp, options)?;
+    write_atomic(
+        &dir.join(OUTPUT_DIR).join("diagnosis.json"),
+        serde_json::to_string_pretty(&d)?.as_bytes(),
+    )?;
+    Ok(DiagnoseOutcome::Diagnosis(Box::new(d)))
+}
+
+/// `host-sim ledger DIR`: the ledger, and `workbench/ledger.svg` plotting
+/// RMSE per version against the noise floor.
+pub fn ledger(dir: &Path) -> Result<(Vec<LedgerEntry>, PathBuf)> {
+    let entries = read_ledger(dir)?;
+    anyhow::ensure!(
+        !entries.is_empty(),
+        "{}: no ledger yet (run `host-sim diagnose` first)",
+        dir.join(super::model_file::LEDGER_FILE).display()
+    );
+    let rmse: Vec<(f64, f64)> = entries
+        .iter()
+        .map(|e| (f64::from(e.version), e.rmse_kpa))
+        .collect();
+    let noise: Vec<(f64, f64)> = entries
+        .iter()
+        .map(|e| (f64::from(e.version), e.noise_floor_kpa))
+        .collect();
+    let svg = chart_svg(
+        "model error per version",
+        "model version",
+        "RMSE (kPa)",
+        &[
+            Series {
+                label: "RMSE",
+                points: &rmse,
+                line: true,
+            },
+            Series {
+                label: "noise floor",
+                points: &noise,
+                line: true,
+            },
+        ],
+    )?;
+    let path = dir.join(OUTPUT_DIR).join("ledger.svg");
+    write_atomic(&path, svg.as_bytes())?;
+    Ok((entries, path))
+}
+
+/// A number with 4 significant-ish digits, small ones in e-notation.
+fn num(x: f64) -> String {
+    if x != 0.0 && x.abs() < 1e-2 {
+        format!("{x:.3e}")
+    } else {
+        format!("{x:.4}")
+    }
+}
+
+fn params_text(params: &[FittedParam]) -> String {
+    let mut s = String::new();
+    for p in params {
+        let se = match (p.std_error, p.interval_95) {
+            (Some(e), Some([a, b])) => format!("± {}  (95 %: {} … {})", num(e), num(a), num(b)),
+            _ => "(not determined by the data)".to_owned(),
+        };
+        s += &format!(
+            "  {:<40} {:>12} {:<10} {se}{}\n",
+            p.name,
+            num(p.value),
+            p.unit,
+            if p.at_bound { "  [at bound]" } else { "" }
+        );
+    }
+    s
+}
+
+fn groups_text(title: &str, groups: &[super::residuals::GroupStat]) -> String {
+    let mut s = format!("  by {title}:\n");
+    for g in groups {
+        s += &format!(
+            "    {:<24} n={:<7} mean {:+.4} kPa  rmse {:.4} kPa\n",
+            g.group, g.n, g.mean_kpa, g.rmse_kpa
+        );
+    }
+    s
+}
+
+fn residual_text(r: &ResidualReport) -> String {
+    let mut s = String::new();
+    s += &groups_text("run", &r.by_run);
+    s += &groups_text("depth", &r.by_depth);
+    s += &groups_text("flow rate", &r.by_flow);
+    s += &groups_text("phase", &r.by_phase);
+    for line in &r.sentences {
+        s += &format!("  {line}\n");
+    }
+    s
+}
+
+impl Comparison {
+    /// Human-readable report.
+    pub fn text(&self) -> String {
+        let mut s = format!(
+            "model: baseline{}\nparameters:\n{}residual (measured − model), noise floor {:.4} kPa ({}):\n{}",
+            self.effects.iter().map(|e| format!(" + {e}")).collect::<String>(),
+            params_text(&self.params),
+            self.noise_floor_kpa,
+            self.noise_floor_source,
+            residual_text(&self.residual)
+        );
+        for f in &self.files {
+            s += &format!("wrote {}\n", f.display());
+        }
+        s
+    }
+}
+
+/// Human-readable diagnosis.
+pub fn diagnosis_text(d: &Diagnosis) -> String {
+    let mut s = format!(
+        "baseline: RMSE {:.4} kPa, held-out {:.4} kPa; noise floor {:.4} kPa ({})\n",
+        d.baseline.rmse_kpa, d.baseline.heldout_rmse_kpa, d.noise_floor_kpa, d.noise_floor_source
+    );
+    s += "candidates (ranked by ΔBIC against the baseline):\n";
+    for c in &d.candidates {
+        s += &format!(
+            "  {:<22} rmse {:.4}  held-out {}  ΔBIC {:>10.1}  excess explained {:>5.0} %\n",
+            c.effect,
+            c.rmse_kpa,
+            c.heldout_rmse_kpa
+                .map_or("   -  ".to_owned(), |h| format!("{h:.4}")),
+            c.score,
+            100.0 * c.excess_explained
+        );
+    }
+    for (name, why) in &d.not_applicable {
+        s += &format!("  {name:<22} not tried: {why}\n");
+    }
+    if d.selected.is_empty() {
+        s += "selected: none (no effect pays off)\n";
+    } else {
+        s += &format!("selected: {}\n", d.selected.join(", "));
+        for e in &d.selected_details {
+            s += &format!("  {}: {}\n", e.effect, e.signature);
+        }
+    }
+    s += &format!("final model parameters:\n{}", params_text(&d.params));
+    s += &format!(
+        "final RMSE {:.4} kPa (held-out {:.4} kPa) vs noise floor {:.4} kPa\n",
+        d.final_rmse_kpa, d.final_heldout_rmse_kpa, d.noise_floor_kpa
+    );
+    s += &format!(
+        "unexplained: {}\n",
+        d.unexplained
+            .as_deref()
+            .unwrap_or("none (the remaining residual looks like noise)")
+    );
+    s += &residual_text(&d.residual);
+    s
+}
+
+impl DiagnoseOutcome {
+    /// Human-readable report.
+    pub fn text(&self) -> String {
+        match self {
+            DiagnoseOutcome::Diagnosis(d) => diagnosis_text(d),
+            DiagnoseOutcome::Added {
+                model,
+                params,
+                ledger,
+            } => {
+                let mut s = format!(
+                    "model version {}: baseline{}\nparameters:\n{}",
+                    model.version,
+                    model
+                        .effects
+                        .iter()
+                        .map(|e| format!(" + {e}"))
+                        .collect::<String>(),
+                    params_text(params)
+                );
+                s += &ledger_text(ledger);
+                s
+            }
+        }
+    }
+}
+
+/// The ledger as a table.
+pub fn ledger_text(entries: &[LedgerEntry]) -> String {
+    let mut s = "version  rmse_kpa  noise_kpa  free  bic          effects\n".to_owned();
+    for e in entries {
+        s += &format!(
+            "{:>7}  {:>8.4}  {:>9.4}  {:>4}  {:>11.1}  {}\n",
+            e.version,
+            e.rmse_kpa,
+            e.noise_floor_kpa,
+            e.free_params,
+            e.bic,
+            if e.effects.is_empty() {
+                "(baseline)".to_owned()
+            } else {
+                e.effects.join(" + ")
+            }
+        );
+    }
+    s
+}

@@ -1,0 +1,423 @@
+//! `diagnose`: which missing physical effect explains the residual.
+//!
+//! For each library effect that can act in the rig, calibrate the current
+//! model plus that effect and score it: ΔBIC against the current model (the
+//! ranking) and, for the best few, the held-out RMSE of a leave-one-run-out
+//! cross-validation (contiguous time blocks when there is a single run).
+//! Effects are added greedily while the best one pays off on every count:
+//! ΔBIC ≤ −10, held-out error down by ≥ 2 %, and at least a third of the
+//! residual's excess over the noise floor explained. A structured residual
+//! that remains is reported as `unexplained`, described in words, rather
+//! than forced onto a wrong effect.
+
+use anyhow::Result;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::calibrate::{calibrate, Fit, FitOptions, FitSpace, FittedParam};
+use super::dataset::{Dataset, MAX_FIT_SAMPLES};
+use super::residuals::{analyse, noise_floor_estimate, residual, ResidualReport};
+use model::effects::{EffectInstance, EffectSpec, REGISTRY};
+use model::{Params, RigBasis};
+use rig::Experiment;
+
+/// Selection thresholds and effort.
+#[derive(Clone, Copy, Debug)]
+pub struct DiagnoseOptions {
+    /// Calibration settings of full fits.
+    pub fit: FitOptions,
+    /// Iterations of each cross-validation refit (warm started).
+    pub cv_iterations: usize,
+    /// Most cross-validation folds.
+    pub max_folds: usize,
+    /// Candidates (best by ΔBIC) that get a cross-validation each round.
+    pub cv_top: usize,
+    /// ΔBIC an effect must reach (negative).
+    pub max_delta_bic: f64,
+    /// Relative held-out improvement an effect must reach.
+    pub min_heldout_gain: f64,
+    /// Fraction of the excess variance over the noise floor it must remove.
+    pub min_excess_explained: f64,
+    /// Most effects added.
+    pub max_effects: usize,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        Self {
+            fit: FitOptions::default(),
+            cv_iterations: 6,
+            max_folds: 4,
+            cv_top: 3,
+            max_delta_bic: -10.0,
+            min_heldout_gain: 0.02,
+            min_excess_explained: 0.33,
+            max_effects: 4,
+        }
+    }
+}
+
+/// One candidate effect scored against the current model.
+#[derive(Clone, Debug, Serialize)]
+pub struct Candidate {
+    /// Effect name.
+    pub effect: String,
+    /// In-sample RMSE with the effect (kPa).
+    pub rmse_kpa: f64,
+    /// Held-out RMSE, for the best few (kPa).
+    pub heldout_rmse_kpa: Option<f64>,
+    /// BIC with the effect.
+    pub bic: f64,
+    /// Ranking score: ΔBIC against the current model (lower is better).
+    pub score: f64,
+    /// Fraction of the excess variance over the noise floor removed.
+    pub excess_explained: f64,
+    /// Fitted parameters (the effect's and the baseline's).
+    pub params: Vec<FittedParam>,
+}
+
+/// The fit of a model structure, summarized.
+#[derive(Clone, Debug, Serialize)]
+pub struct ModelScore {
+    /// Effects on.
+    pub effects: Vec<String>,
+    /// In-sample RMSE on the fitted samples (kPa).
+    pub rmse_kpa: f64,
+    /// Held-out RMSE (kPa).
+    pub heldout_rmse_kpa: f64,
+    /// BIC.
+    pub bic: f64,
+    /// Fitted parameters.
+    pub params: Vec<FittedParam>,
+}
+
+/// A selected effect and why.
+#[derive(Clone, Debug, Serialize)]
+pub struct SelectedEffect {
+    /// Effect name.
+    pub effect: String,
+    /// Its parameters in the final model.
+    pub params: Vec<FittedParam>,
+    /// The residual signature that gave it away, in plain words.
+    pub signature: String,
+}
+
+/// The diagnosis (`host-sim diagnose --json` prints this).
+#[derive(Clone, Debug, Serialize)]
+pub struct Diagnosis {
+    /// The bare model's fit.
+    pub baseline: ModelScore,
+    /// First round: every applicable effect against the baseline, ranked.
+    pub candidates: Vec<Candidate>,
+    /// Later rounds (after each selection), ranked.
+    pub later_rounds: Vec<Vec<Candidate>>,
+    /// Effects not tried, with the reason.
+    pub not_applicable: Vec<(String, String)>,
+    /// Effect names in the order added.
+    pub selected: Vec<String>,
+    /// Details of each selected effect.
+    pub selected_details: Vec<SelectedEffect>,
+    /// Parameters of the final model.
+    pub params: Vec<FittedParam>,
+    /// Final RMSE on every sample (kPa).
+    pub final_rmse_kpa: f64,
+    /// Final held-out RMSE (kPa).
+    pub final_heldout_rmse_kpa: f64,
+    /// Noise floor (kPa).
+    pub noise_floor_kpa: f64,
+    /// Where the noise floor came from.
+    pub noise_floor_source: String,
+    /// A structured residual no library effect explains, described; null
+    /// when the remaining residual looks like noise.
+    pub unexplained: Option<String>,
+    /// The final residual, analysed.
+    pub residual: ResidualReport,
+    /// Samples in the folder / used for fitting.
+    pub samples: [usize; 2],
+}
+
+/// Training masks of the cross-validation folds.
+fn folds(data: &Dataset, max_folds: usize) -> Vec<Vec<bool>> {
+    let n = data.len();
+    let runs = data.runs.len();
+    let k = max_folds.max(2);
+    if runs >= 2 {
+        let k = k.min(runs);
+        (0..k)
+            .map(|f| data.run_of.iter().map(|&r| r % k != f).collect())
+            .collect()
+    } else {
+        (0..3)
+            .map(|f| (0..n).map(|i| i * 3 / n.max(1) != f).collect())
+            .collect()
+    }
+}
+
+/// Held-out RMSE of `space` (warm start from `full`).
+fn heldout(full: &Fit, data: &Dataset, masks: &[Vec<bool>], opts: &DiagnoseOptions) -> f64 {
+    let cv = FitOptions {
+        max_iterations: opts.cv_iterations,
+        ..opts.fit
+    };
+    let parts: Vec<(f64, usize)> = masks
+        .par_iter()
+        .map(|mask| {
+            let theta = calibrate(&full.space, data, Some(mask), cv)
+                .map(|f| f.theta)
+                .unwrap_or_else(|_| full.theta.clone());
+            let Ok(model) = full.space.model(&theta) else {
+                return (f64::INFINITY, 1);
+            };
+            let pred = data.predict(&model);
+            let (mut s, mut n) = (0.0, 0);
+            for (i, (p, m)) in pred.iter().zip(&data.measured).enumerate() {
+                if !mask[i] {
+                    s += (p - m) * (p - m);
+                    n += 1;
+                }
+            }
+            (s, n)
+        })
+        .collect();
+    let s: f64 = parts.iter().map(|p| p.0).sum();
+    let n: usize = parts.iter().map(|p| p.1).sum();
+    (s / n.max(1) as f64).sqrt()
+}
+
+fn score(fit: &Fit, heldout_rmse_kpa: f64) -> ModelScore {
+    ModelScore {
+        effects: fit
+            .space
+            .effects
+            .iter()
+            .map(|e| e.spec.name.to_owned())
+            .collect(),
+        rmse_kpa: fit.rmse_kpa,
+        heldout_rmse_kpa,
+        bic: fit.bic(),
+        params: fit.params.clone(),
+    }
+}
+
+/// Calibrates the model with `effects` on (starting from their values).
+pub fn fit_effects(
+    basis: &std::sync::Arc<RigBasis>,
+    data: &Dataset,
+    baseline: Params,
+    effects: Vec<EffectInstance>,
+    options: FitOptions,
+) -> Result<Fit> {
+    let space = FitSpace::new(basis.clone(), data, baseline, effects);
+    calibrate(&space, data, None, options)
+}
+
+/// The noise floor (kPa) and where it came from: rig.toml's
+/// `pressure_noise_kpa` when given, else estimated from the second
+/// differences of residual `r` over `data`.
+pub fn noise_floor(experiment: &Experiment, data: &Dataset, r: &[f64]) -> (f64, String) {
+    match experiment.rig.measurement.pressure_noise_kpa {
+        Some(s) if s > 0.0 => (s, "rig.toml measurement.pressure_noise_kpa".to_owned()),
+        _ => (
+            noise_floor_estimate(data, r),
+            "estimated from second differences of the baseline residual".to_owned(),
+        ),
+    }
+}
+
+/// Starting points of a candidate's parameters: its defaults and, for an
+/// effect that starts switched off (default on the lower bound), a probe
+/// at 5 % of the range: a weak, partly confounded effect (a small bubble
+/// looks like softer sand) can otherwise stall in a local minimum near zero.
+fn starts(spec: &EffectSpec) -> Vec<Vec<f64>> {
+    let defaults: Vec<f64> = spec.params.iter().map(|p| p.default).collect();
+    let mut out = vec![defaults.clone()];
+    if let Some(p) = spec.params.first() {
+        if p.default <= p.lower {
+            let mut probe = defaults;
+            probe[0] = p.lower + 0.05 * (p.upper - p.lower);
+            out.push(probe);
+        }
+    }
+    out
+}
+
+/// Diagnoses `experiment`.
+pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagnosis> {
+    let basis = RigBasis::new(&experiment.rig)?;
+    let all = Dataset::new(experiment);
+    anyhow::ensure!(!all.is_empty(), "the experiment has no samples");
+    let data = all.thinned(MAX_FIT_SAMPLES);
+    let masks = folds(&data, opts.max_folds);
+
+    let base_fit = fit_effects(&basis, &data, Params::default(), Vec::new(), opts.fit)?;
+    let base_model = base_fit.model()?;
+    let (base_r, _) = residual(&all, &base_model);
+    let (noise, noise_source) = noise_floor(experiment, &all, &base_r);
+    let base_heldout = heldout(&base_fit, &data, &masks, opts);
+    let baseline = score(&base_fit, base_heldout);
+
+    let mut not_applicable = Vec::new();
+    let applicable: Vec<&'static EffectSpec> = REGISTRY
+        .iter()
+        .copied()
+        .filter(|s| match (s.not_applicable)(&experiment.rig) {
+            Some(why) => {
+                not_applicable.push((s.name.to_owned(), why.to_owned()));
+                false
+            }
+            None => true,
+        })
+        .collect();
+
+    let mut current = base_fit;
+    let mut current_heldout = base_heldout;
+    let mut rounds: Vec<Vec<Candidate>> = Vec::new();
+    let mut selected: Vec<String> = Vec::new();
+    while selected.len() < opts.max_effects {
+        let on: Vec<&str> = current.space.effects.iter().map(|e| e.spec.name).collect();
+        let tries: Vec<&'static EffectSpec> = applicable
+            .iter()
+            .copied()
+            .filter(|s| !on.contains(&s.name))
+            .collect();
+        if tries.is_empty() {
+            break;
+        }
+        let excess = (current.rmse_kpa.powi(2) - noise * noise).max(1e-12);
+        let current_bic = current.bic();
+        let mut fits: Vec<(Fit, Candidate)> = tries
+            .par_iter()
+            .filter_map(|spec| {
+                let fit = starts(spec)
+                    .into_iter()
+                    .filter_map(|values| {
+                        let mut effects = current.space.effects.clone();
+                        effects.push(EffectInstance { spec, values });
+                        fit_effects(&basis, &data, current.space.baseline, effects, opts.fit).ok()
+                    })
+                    .min_by(|a, b| a.ssr.total_cmp(&b.ssr))?;
+                let explained = (current.rmse_kpa.powi(2) - fit.rmse_kpa.powi(2)) / excess;
+                let cand = Candidate {
+                    effect: spec.name.to_owned(),
+                    rmse_kpa: fit.rmse_kpa,
+                    heldout_rmse_kpa: None,
+                    bic: fit.bic(),
+                    score: fit.bic() - current_bic,
+                    excess_explained: explained,
+                    params: fit.params.clone(),
+                };
+                Some((fit, cand))
+            })
+            .collect();
+        fits.sort_by(|a, b| a.1.score.total_cmp(&b.1.score));
+        for (fit, cand) in fits.iter_mut().take(opts.cv_top) {
+            cand.heldout_rmse_kpa = Some(heldout(fit, &data, &masks, opts));
+        }
+        let best = fits.first().and_then(|(fit, cand)| {
+            let h = cand.heldout_rmse_kpa?;
+            let pays = cand.score <= opts.max_delta_bic
+                && h <= current_heldout * (1.0 - opts.min_heldout_gain)
+                && cand.excess_explained >= opts.min_excess_explained;
+            pays.then(|| (fit.clone(), h))
+        });
+        rounds.push(fits.iter().map(|f| f.1.clone()).collect());
+        match best {
+            Some((fit, h)) => {
+                selected.push(
+                    fit.space
+                        .effects
+                        .last()
+                        .map(|e| e.spec.name.to_owned())
+                        .unwrap_or_default(),
+                );
+                current = fit;
+                current_heldout = h;
+            }
+            None => break,
+        }
+    }
+
+    let final_model = current.model()?;
+    let (r, preds) = residual(&all, &final_model);
+    let report = analyse(&all, &r, &preds);
+    let final_rmse = report.overall.rmse_kpa;
+    let unexplained = unexplained(&report, noise);
+    let selected_details = selected
+        .iter()
+        .filter_map(|name| {
+            let spec = EffectSpec::by_name(name).ok()?;
+            let prefix = format!("{name}.");
+            Some(SelectedEffect {
+                effect: name.clone(),
+                params: current
+                    .params
+                    .iter()
+                    .filter(|p| p.name.starts_with(&prefix))
+                    .cloned()
+                    .collect(),
+                signature: spec.signature.to_owned(),
+            })
+        })
+        .collect();
+    let mut rounds = rounds.into_iter();
+    Ok(Diagnosis {
+        baseline,
+        candidates: rounds.next().unwrap_or_default(),
+        later_rounds: rounds.collect(),
+        not_applicable,
+        selected,
+        selected_details,
+        params: current.params.clone(),
+        final_rmse_kpa: final_rmse,
+        final_heldout_rmse_kpa: current_heldout,
+        noise_floor_kpa: noise,
+        noise_floor_source: noise_source,
+        unexplained,
+        residual: report,
+        samples: [all.len(), data.len()],
+    })
+}
+
+/// A description of the remaining residual when it is structured (well
+/// above the noise floor, autocorrelated, too few sign changes), else
+/// `None`.
+pub fn unexplained(rep: &ResidualReport, noise_kpa: f64) -> Option<String> {
+    let structured = rep.overall.rmse_kpa > 1.25 * noise_kpa
+        && rep.lag1_autocorrelation > 0.3
+        && rep.runs_test_z < -4.0;
+    if !structured {
+        return None;
+    }
+    let c = &rep.correlations;
+    let mut how = Vec::new();
+    if c.time.abs() > 0.5 {
+        how.push(format!(
+            "{} linearly with time (correlation {:+.2})",
+            if c.time > 0.0 { "grows" } else { "falls" },
+            c.time
+        ));
+    }
+    for (what, r) in [
+        ("flow rate", c.flow),
+        ("pumped volume", c.volume),
+        ("pressure", c.pressure),
+        ("depth", c.depth),
+    ] {
+        if r.abs() > 0.5 {
+            how.push(format!("follows {what} (correlation {r:+.2})"));
+        }
+    }
+    if how.is_empty() {
+        how.push(format!(
+            "varies slowly in time (lag-1 autocorrelation {:.2}) without following flow, volume, pressure, depth or time linearly (all |r| ≤ 0.5)",
+            rep.lag1_autocorrelation
+        ));
+    }
+    Some(format!(
+        "unexplained residual of RMSE {:.3} kPa ({:.1}× the noise floor) that {}; runs test z = {:.1}. No library effect removes it.",
+        rep.overall.rmse_kpa,
+        rep.overall.rmse_kpa / noise_kpa.max(1e-12),
+        how.join(" and "),
+        rep.runs_test_z
+    ))
+}

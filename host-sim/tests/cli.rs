@@ -1,0 +1,55 @@
+//! The `host-sim` binary end to end: its subcommands as a user runs them.
+
+use std::path::PathBuf;
+
+use rig::{Experiment, PressureSource};
+
+#[path = "../crates/rig/tests/fixtures/mod.rs"]
+mod fixtures;
+use fixtures::{noisy_capture, RIG_NO_SAND};
+
+#[test]
+fn cli_telemetry_writes_a_readable_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let capture = dir.path().join("cap.bin");
+    std::fs::write(&capture, noisy_capture()).unwrap();
+    let rig = dir.path().join("my-rig.toml");
+    std::fs::write(&rig, RIG_NO_SAND).unwrap();
+    let out: PathBuf = dir.path().join("out");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .arg("telemetry")
+        .arg(&capture)
+        .arg("--out")
+        .arg(&out)
+        .arg("--rig")
+        .arg(&rig)
+        .args(["--run", "bench", "--depth-mm", "0"])
+        .output()
+        .unwrap();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    assert!(String::from_utf8_lossy(&status.stdout).contains("run bench: 3 samples at depth 0 mm"));
+    let exp = Experiment::read(&out).unwrap();
+    assert_eq!(exp.runs[0].id, "bench");
+    assert_eq!(
+        exp.rig.measurement.pressure_source,
+        PressureSource::PistonForce
+    );
+
+    // Without a depth and with a sand-free rig, a buried run is refused.
+    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .arg("telemetry")
+        .arg(&capture)
+        .arg("--out")
+        .arg(dir.path().join("out2"))
+        .arg("--rig")
+        .arg(&rig)
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(stderr.contains("missing section [sand]"), "{stderr}");
+}
