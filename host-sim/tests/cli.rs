@@ -51,5 +51,8 @@ fn cli_telemetry_writes_a_readable_folder() {
         .unwrap();
     assert!(!bad.status.success());
     let stderr = String::from_utf8_lossy(&bad.stderr);
-    assert!(stderr.contains("missing section [sand]"), "{stderr}");
+    assert!(
+        stderr.contains("rig.toml: sand: missing section"),
+        "{stderr}"
+    );
 }

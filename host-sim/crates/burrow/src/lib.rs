@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use atomic_file::write_atomic;
+use datafile::write_atomic;
 
 use crate::coupling::Sample;
 pub use ensemble::Ensemble;

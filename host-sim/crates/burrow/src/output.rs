@@ -15,7 +15,7 @@ use super::Report;
 use crate::bins::bin_samples_indexed;
 use crate::coupling::Sample;
 use ::plot::plot_err;
-use atomic_file::write_atomic;
+use datafile::write_atomic;
 use dem::Particles;
 use sand::{BalloonPoint, BALLOON_FINAL_DIAMETER_MM};
 

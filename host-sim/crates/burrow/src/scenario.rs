@@ -23,6 +23,8 @@
 
 use std::num::NonZeroUsize;
 
+use constants::{GRAVITY_M_S2, SEAWATER_DENSITY_KG_M3};
+
 use anyhow::{ensure, Context, Result};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -39,6 +41,9 @@ use skin::{default_skin, StrainEnergy, Yeoh};
 /// at 8 each is 0.22 mm thick and the skin's step falls well below the
 /// DEM's.
 pub const MAX_SKIN_LAYERS: usize = 8;
+
+/// Lattice rows of a surcharge layer ([`ScenarioSpec::with_surcharge`]).
+pub const SURCHARGE_ROWS: NonZeroUsize = NonZeroUsize::new(2).expect("two rows");
 
 /// Grain radius of the default coarse-grained sand (m): 1.5 mm, about 4
 /// of the paper's 0.36 mm grains across; the final Δp_i changed by 2.1 %
@@ -57,8 +62,6 @@ pub const DEPOSITION_MODULUS_PA: f64 = 1.0e7;
 /// How long the stiffened bed relaxes, with the settling drag, before the
 /// advance (s): a few drag times.
 pub const RELAX_S: f64 = 0.03;
-/// Density of the water the sand is submerged in (kg/m³).
-pub const WATER_DENSITY_KG_M3: f64 = 1025.0;
 /// Inter-grain friction of the paper.
 pub const FRICTION: f64 = 0.25;
 /// Rolling resistance of the coarse spheres (−): a typical value for
@@ -111,8 +114,6 @@ pub const PAPER_ADVANCE_M: f64 = 1e-3;
 pub const WIDE_TANK_DIAMETERS: f64 = 3.0;
 /// Penalty bulk modulus of the zone's fluid (Pa): ≫ the few kPa reached.
 pub const FLUID_BULK_MODULUS_PA: f64 = 1e6;
-/// Standard gravity (m/s²).
-pub const GRAVITY_M_S2: f64 = 9.81;
 
 /// What the body does with the head while the zone swells.
 ///
@@ -171,6 +172,21 @@ impl std::fmt::Display for HeadSupport {
 }
 
 /// Everything that sets up one scenario run.
+/// What lies above the zone's axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Overburden {
+    /// Sand up to the surface.
+    Sand,
+    /// Sand up to `slab_top_m` above the axis, and above it `rows` lattice
+    /// rows of heavy grains carrying the rest of the overburden's weight.
+    Surcharge {
+        /// Top of the sand slab above the axis (m).
+        slab_top_m: f64,
+        /// Lattice rows of the surcharge layer.
+        rows: NonZeroUsize,
+    },
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct ScenarioSpec {
     /// Depth of the zone's axis below the sand surface h (m).
@@ -183,16 +199,14 @@ pub struct ScenarioSpec {
     pub ahead_m: f64,
     /// Floor below the axis (m).
     pub below_m: f64,
-    /// Nominal top of the simulated slab above the axis (m): the depth
-    /// (sand to the surface), or lower with a surcharge layer above it.
-    pub above_m: f64,
+    /// What lies above the axis: sand to the surface, or sand to a slab
+    /// top with a surcharge layer standing for the rest.
+    pub overburden: Overburden,
     /// Solid fraction of the settled bed (for the grain count and the
     /// buoyant unit weight γ' = φ (ρ_s − ρ_w) g): 0.56, what the
     /// dense-deposited bed settles at (its surface then lands within
     /// about a grain of h).
     pub packing: f64,
-    /// Lattice rows of heavy grains carrying the surcharge.
-    pub surcharge_rows: usize,
     /// Settling time before the expansion (s).
     pub settle_s: f64,
     /// Target duration of the expansion (s): sets the injection rate.
@@ -301,9 +315,8 @@ impl ScenarioSpec {
             box_width_m: 40e-3,
             ahead_m: 15e-3,
             below_m,
-            above_m: depth_m,
+            overburden: Overburden::Sand,
             packing: 0.56,
-            surcharge_rows: 0,
             settle_s: Self::column_settle_s(below_m + depth_m),
             expansion_s: 0.3,
             final_diameter_m: PAPER_FINAL_DIAMETER_M,
@@ -323,7 +336,7 @@ impl ScenarioSpec {
             tube: TubeGeometry::PAPER,
             skin_coefficients: None,
             grain_density_kg_m3: GRAIN_DENSITY_KG_M3,
-            water_density_kg_m3: WATER_DENSITY_KG_M3,
+            water_density_kg_m3: SEAWATER_DENSITY_KG_M3,
             friction: FRICTION,
             setup: "the paper's set-up".to_string(),
             face_grain_radius_m: None,
@@ -413,7 +426,7 @@ impl ScenarioSpec {
             box_width_m,
             ahead_m: self.ahead_m.max(0.8 * d0),
             below_m,
-            settle_s: Self::column_settle_s(below_m + self.above_m),
+            settle_s: Self::column_settle_s(below_m + self.above_m()),
             final_diameter_m,
             wall_friction,
             skin_friction: sand.friction,
@@ -496,10 +509,12 @@ impl ScenarioSpec {
     /// cheaper, but the layer has the overburden's weight, not its shear
     /// strength (measured: p_e at 40 mm 0.81 kPa under a surcharge above
     /// 20 mm, 0.92 kPa with the sand column, same grains).
-    pub fn with_surcharge(self, above_m: f64, rows: usize) -> ScenarioSpec {
+    pub fn with_surcharge(self, above_m: f64, rows: NonZeroUsize) -> ScenarioSpec {
         ScenarioSpec {
-            above_m,
-            surcharge_rows: rows,
+            overburden: Overburden::Surcharge {
+                slab_top_m: above_m,
+                rows,
+            },
             settle_s: Self::column_settle_s(self.below_m + above_m),
             ..self
         }
@@ -510,6 +525,23 @@ impl ScenarioSpec {
     /// height, falling at ≈ 0.13 m/s under the settling drag, then rests.
     pub fn column_settle_s(height_m: f64) -> f64 {
         0.15 + 2.5 * height_m
+    }
+
+    /// Nominal top of the simulated slab above the axis (m): the depth
+    /// (sand to the surface), or lower under a surcharge layer.
+    pub fn above_m(&self) -> f64 {
+        match self.overburden {
+            Overburden::Sand => self.depth_m,
+            Overburden::Surcharge { slab_top_m, .. } => slab_top_m,
+        }
+    }
+
+    /// Lattice rows of heavy grains carrying the surcharge (0: none).
+    pub fn surcharge_rows(&self) -> usize {
+        match self.overburden {
+            Overburden::Sand => 0,
+            Overburden::Surcharge { rows, .. } => rows.get(),
+        }
     }
 
     /// The skin's law: the measured coefficients, else the project's
@@ -594,7 +626,7 @@ impl ScenarioSpec {
     /// Vertical effective stress the surcharge layer applies on the slab
     /// top: γ'·(h − slab top) (Pa).
     pub fn surcharge_pa(&self) -> f64 {
-        self.buoyant_unit_weight_n_m3() * (self.depth_m - self.above_m)
+        self.buoyant_unit_weight_n_m3() * (self.depth_m - self.above_m())
     }
 
     /// Vertical effective stress at the axis, γ'·h (Pa).
@@ -663,7 +695,7 @@ impl ScenarioSpec {
         let paper = self.tube == TubeGeometry::PAPER
             && (self.final_diameter_m * 1e3 - BALLOON_FINAL_DIAMETER_MM).abs() < 1e-9
             && self.grain_density_kg_m3 == GRAIN_DENSITY_KG_M3
-            && self.water_density_kg_m3 == WATER_DENSITY_KG_M3
+            && self.water_density_kg_m3 == SEAWATER_DENSITY_KG_M3
             && self.friction == FRICTION;
         let h_mm = self.depth_m * 1e3;
         BALLOON_TABLE
@@ -729,17 +761,10 @@ impl ScenarioSpec {
             self.depth_m * 1e3
         );
         ensure!(
-            self.depth_m >= self.above_m && self.above_m > 0.0,
+            self.depth_m >= self.above_m() && self.above_m() > 0.0,
             "depth {} mm must be at or below the slab top at {} mm above the axis",
             self.depth_m * 1e3,
-            self.above_m * 1e3
-        );
-        ensure!(
-            (self.surcharge_rows == 0) == (self.above_m == self.depth_m),
-            "surcharge rows ({}) are needed exactly when the slab top ({} mm) is below the surface ({} mm)",
-            self.surcharge_rows,
-            self.above_m * 1e3,
-            self.depth_m * 1e3
+            self.above_m() * 1e3
         );
         ensure!(
             self.depth_m >= 0.5 * self.final_diameter_m + 2.0 * self.grain_radius_m,
@@ -1057,7 +1082,7 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     // Grain count for the slab at the assumed packing: the block's grains
     // count for their own volume.
     let zone_volume = std::f64::consts::PI * keep_out.powi(2) * zone_m;
-    let slab_volume = w * (spec.below_m + spec.above_m) * zl - zone_volume;
+    let slab_volume = w * (spec.below_m + spec.above_m()) * zl - zone_volume;
     let grain_volume = ball(r);
     let coarse = ((spec.packing * slab_volume - fine.len() as f64 * ball(fine_radius))
         / grain_volume)
@@ -1071,12 +1096,12 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     let (nx, nz) = (per_axis(w), per_axis(zl));
     let x0 = -0.5 * w + 0.5 * (w - (nx - 1) as f64 * pitch);
     let z0 = 0.5 * (zl - (nz - 1) as f64 * pitch);
-    let mut positions = Vec::with_capacity(slab_grains + spec.surcharge_rows * nx * nz);
+    let mut positions = Vec::with_capacity(slab_grains + spec.surcharge_rows() * nx * nz);
     positions.append(&mut fine);
     let fine_grains = positions.len();
     let mut row = 0usize;
     let mut surcharge_start = None;
-    while surcharge_start.is_none_or(|k0| row < k0 + spec.surcharge_rows) {
+    while surcharge_start.is_none_or(|k0| row < k0 + spec.surcharge_rows()) {
         let y = -spec.below_m + 0.5 * pitch + row as f64 * pitch;
         for j in 0..nz {
             for i in 0..nx {
@@ -1102,9 +1127,9 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
     }
     let surcharge_grains = positions.len() - slab_grains;
     ensure!(
-        (surcharge_grains > 0) == (spec.surcharge_rows > 0),
+        (surcharge_grains > 0) == (spec.surcharge_rows() > 0),
         "{surcharge_grains} surcharge grains placed for {} rows",
-        spec.surcharge_rows
+        spec.surcharge_rows()
     );
     let top_area_m2 = w * zl;
     // Each heavy grain's buoyant weight: its share of σ·A.

@@ -11,7 +11,7 @@ use anyhow::{ensure, Result};
 use rig::Rig;
 
 use crate::ensemble::Ensemble;
-use crate::scenario::{self, HeadSupport, ScenarioSpec};
+use crate::scenario::{self, HeadSupport, ScenarioSpec, SURCHARGE_ROWS};
 use crate::solver_sand::RigSetup;
 use crate::{simulate, Options, Report};
 
@@ -156,10 +156,10 @@ impl SimulateSettings {
         set(&mut spec.box_width_m, self.box_width_mm.map(milli));
         if let Some(below) = self.below_mm {
             spec.below_m = milli(below);
-            spec.settle_s = ScenarioSpec::column_settle_s(spec.below_m + spec.above_m);
+            spec.settle_s = ScenarioSpec::column_settle_s(spec.below_m + spec.above_m());
         }
         if let Some(above) = self.surcharge_above_mm {
-            spec = spec.with_surcharge(milli(above), 2);
+            spec = spec.with_surcharge(milli(above), SURCHARGE_ROWS);
         }
         spec.seed = self.seed;
         spec.face_grain_radius_m = self.face_grain_radius_mm.map(milli);

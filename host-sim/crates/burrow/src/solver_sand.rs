@@ -290,7 +290,7 @@ pub fn regenerate(
     let text = csv_text(&runs, opts)?;
     SolverSand::parse(&text, &out.display().to_string())
         .context("the solver results do not make a valid data file")?;
-    atomic_file::write_atomic(out, text.as_bytes())
+    datafile::write_atomic(out, text.as_bytes())
         .with_context(|| format!("writing {}", out.display()))?;
     Ok(runs)
 }

@@ -155,7 +155,7 @@ fn tiny_balloon() -> ScenarioSpec {
         frames: 1,
         samples: 10,
         ..ScenarioSpec::quick(40e-3, 2.5e-3)
-            .with_surcharge(20e-3, 2)
+            .with_surcharge(20e-3, burrow::scenario::SURCHARGE_ROWS)
             .with_membrane()
             .as_balloon()
     }

@@ -2,6 +2,7 @@
 //! the pressurised skin, and the front face's pressure.
 
 use burrow::coupling::{expand, Coupling, Expansion, ExpansionError, FrontFace, HeadDraw};
+use constants::GRAVITY_M_S2;
 use dem::contact::{ContactModel, ContactSpec, Material};
 use dem::{step, Params, Particles, State, Wall};
 use fem::{Ends, Skin, SkinSpec};
@@ -110,7 +111,7 @@ fn a_sphere_dropped_on_the_pressurised_skin_bounces_with_balanced_forces() {
         ContactModel::hertz_mindlin(&SAND, &skin_material(), &ContactSpec::default()).unwrap();
     let dt = 1e-5;
     let mut params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
-    params.gravity_m_s2 = Vector3::new(0.0, -9.81, 0.0);
+    params.gravity_m_s2 = Vector3::new(0.0, -GRAVITY_M_S2, 0.0);
     let r = 1e-3;
     let v0 = 0.3;
     let mut p = Particles::new();
@@ -154,7 +155,8 @@ fn a_sphere_dropped_on_the_pressurised_skin_bounces_with_balanced_forces() {
 fn the_front_face_reads_the_weight_of_the_grains_resting_on_it() {
     let dt = 1e-5;
     let spec = ContactSpec::default();
-    let params = Params::new(&SAND, &spec, dt).unwrap();
+    let mut params = Params::new(&SAND, &spec, dt).unwrap();
+    params.gravity_m_s2 = Vector3::new(0.0, 0.0, -GRAVITY_M_S2);
     let model = ContactModel::hertz_mindlin(&SAND, &SAND, &spec).unwrap();
     let radius = 6e-3;
     let mut face = FrontFace::new(Vector3::zeros(), Vector3::z(), radius, model, dt).unwrap();
@@ -186,7 +188,7 @@ fn the_front_face_reads_the_weight_of_the_grains_resting_on_it() {
         2920.0,
     )
     .unwrap();
-    let weight: f64 = p.mass_kg[..7].iter().sum::<f64>() * 9.81;
+    let weight: f64 = p.mass_kg[..7].iter().sum::<f64>() * GRAVITY_M_S2;
     let mut state = State::new(p);
     for _ in 0..5_000 {
         step(&params, &mut state, &mut face).unwrap();
@@ -232,7 +234,7 @@ fn an_elastic_bounce_on_the_undamped_skin_conserves_energy() {
     let model = ContactModel::hertz_mindlin(&SAND, &skin_material(), &spec).unwrap();
     let dt = 2e-6;
     let mut params = Params::new(&SAND, &spec, dt).unwrap();
-    params.gravity_m_s2 = Vector3::new(0.0, -9.81, 0.0);
+    params.gravity_m_s2 = Vector3::new(0.0, -GRAVITY_M_S2, 0.0);
     let r = 1e-3;
     let mut p = Particles::new();
     p.push(
@@ -281,7 +283,7 @@ fn a_grain_resting_on_the_skin_loads_it_with_its_weight() {
         ContactModel::hertz_mindlin(&SAND, &skin_material(), &ContactSpec::default()).unwrap();
     let dt = 1e-5;
     let mut params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
-    params.gravity_m_s2 = Vector3::new(0.0, -9.81, 0.0);
+    params.gravity_m_s2 = Vector3::new(0.0, -GRAVITY_M_S2, 0.0);
     let r = 0.5e-3;
     // A frictionless box round the top of the middle ring keeps the grain
     // from rolling off the convex skin; its walls push sideways only.
@@ -314,7 +316,7 @@ fn a_grain_resting_on_the_skin_loads_it_with_its_weight() {
         2920.0,
     )
     .unwrap();
-    let weight = p.mass_kg.iter().sum::<f64>() * 9.81;
+    let weight = p.mass_kg.iter().sum::<f64>() * GRAVITY_M_S2;
     let mut state = State::new(p);
     let mut c = Coupling::new(skin, model, dt).unwrap();
     for _ in 0..10_000 {
@@ -352,7 +354,8 @@ fn a_dem_step_longer_than_the_skins_stable_step_is_subcycled() {
     let dt = 20.0 * skin.stable_time_step_s().unwrap();
     let model =
         ContactModel::hertz_mindlin(&SAND, &skin_material(), &ContactSpec::default()).unwrap();
-    let params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    let mut params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    params.gravity_m_s2 = Vector3::new(0.0, 0.0, -GRAVITY_M_S2);
     let mut p = Particles::new();
     // One grain far from the skin, falling freely.
     p.push(Vector3::new(0.0, 0.0, 0.2), Vector3::zeros(), 1e-3, 2920.0)
@@ -390,7 +393,8 @@ fn a_slow_expansion_in_free_water_follows_the_static_skin_curve() {
     let model =
         ContactModel::hertz_mindlin(&SAND, &skin_material(), &ContactSpec::default()).unwrap();
     let dt = 5e-5;
-    let params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    let mut params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    params.gravity_m_s2 = Vector3::new(0.0, 0.0, -GRAVITY_M_S2);
     let mut p = Particles::new();
     p.push(Vector3::new(0.0, 0.0, 0.5), Vector3::zeros(), 1e-3, 2920.0)
         .unwrap();
@@ -454,7 +458,8 @@ fn a_head_draw_needs_a_free_head_and_a_sane_law() {
     let model =
         ContactModel::hertz_mindlin(&SAND, &skin_material(), &ContactSpec::default()).unwrap();
     let dt = 5e-5;
-    let params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    let mut params = Params::new(&SAND, &ContactSpec::default(), dt).unwrap();
+    params.gravity_m_s2 = Vector3::new(0.0, 0.0, -GRAVITY_M_S2);
     let mut state = State::new(Particles::new());
     let mut c = Coupling::new(skin, model, dt).unwrap();
     let law = HeadDraw::meridian(18.7e-3, 25e-3, 20e-3);

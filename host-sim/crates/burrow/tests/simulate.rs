@@ -19,7 +19,7 @@ fn tiny(radius_m: f64, settle_s: f64, expansion_s: f64, frames: usize) -> Scenar
         frames,
         samples: 10 * frames,
         ..ScenarioSpec::quick(40e-3, radius_m)
-            .with_surcharge(20e-3, 2)
+            .with_surcharge(20e-3, burrow::scenario::SURCHARGE_ROWS)
             .with_membrane()
     }
 }
@@ -157,7 +157,9 @@ fn impossible_cases_are_refused_with_what_is_wrong() {
     assert!(e.contains("grain radius must be positive"), "{e}");
     let e = err(ScenarioSpec::paper(-5e-3, 1.5e-3));
     assert!(e.contains("depth -5 mm must be positive"), "{e}");
-    let e = err(ScenarioSpec::paper(30e-3, 1.5e-3).with_surcharge(40e-3, 2));
+    let e =
+        err(ScenarioSpec::paper(30e-3, 1.5e-3)
+            .with_surcharge(40e-3, burrow::scenario::SURCHARGE_ROWS));
     assert!(e.contains("depth 30 mm") && e.contains("40 mm"), "{e}");
     let e = err(ScenarioSpec {
         rolling_friction: 2.0,
@@ -335,7 +337,7 @@ fn a_rig_sets_the_actuator_the_sand_the_fluid_and_the_box() {
     assert_eq!(spec.wall_friction, 0.0);
     assert_eq!(spec.friction, 0.5);
     // γ' = 0.56 (2650 − 1000) 9.81 N/m³.
-    let g = 0.56 * 1650.0 * 9.81;
+    let g = 0.56 * 1650.0 * constants::GRAVITY_M_S2;
     assert!((spec.buoyant_unit_weight_n_m3() - g).abs() < 1e-9);
     // The skin the solver builds is the rig's tube.
     let skin = spec.skin(Ends::Clamped).unwrap();
@@ -424,7 +426,7 @@ fn a_tiny_bed_of_another_rig_carries_its_own_buoyant_weight() {
         ..ScenarioSpec::quick(45e-3, r).with_membrane()
     };
     let (spec, _) = base.with_rig(&rig, "rig.toml", None).unwrap();
-    let spec = spec.with_surcharge(25e-3, 2);
+    let spec = spec.with_surcharge(25e-3, burrow::scenario::SURCHARGE_ROWS);
     let report = simulate(&Options {
         spec: spec.clone(),
         out: None,
@@ -442,7 +444,7 @@ fn a_tiny_bed_of_another_rig_carries_its_own_buoyant_weight() {
         * std::f64::consts::PI
         * r.powi(3)
         * (2650.0 - 1000.0)
-        * 9.81;
+        * constants::GRAVITY_M_S2;
     let surcharge_n = report.surcharge_pa * spec.box_width_m * spec.slab_length_m();
     let want = slab_weight + surcharge_n;
     assert!(

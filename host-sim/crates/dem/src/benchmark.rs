@@ -25,6 +25,8 @@ pub const LATTICE: [usize; 3] = [25, 25, 32];
 pub const RADIUS_M: f64 = 1.0e-3;
 /// Box side (m).
 pub const BOX_M: f64 = 60.0e-3;
+/// Gravity (m/s², along −z): in.liggghts's `fix gravity`.
+pub const GRAVITY_M_S2: f64 = 9.81;
 /// Lattice seed of gen_lattice.py.
 pub const SEED: u64 = 12345;
 /// Steps of the three timed phases (warm-up, settling, packed bed).
@@ -75,6 +77,7 @@ pub fn problem() -> Result<(Params, State)> {
         rolling_friction: 0.0,
     };
     let mut params = Params::new(&mat, &spec, 1.5e-5)?;
+    params.gravity_m_s2 = Vector3::new(0.0, 0.0, -GRAVITY_M_S2);
     params.skin_m = 2.0e-4;
     let planes = [
         (Vector3::zeros(), Vector3::x()),

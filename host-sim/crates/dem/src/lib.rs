@@ -17,7 +17,8 @@
 //! use dem::{step, Params, State, Particles, contact::{Material, ContactSpec}};
 //! use nalgebra::Vector3;
 //! let sand = Material { youngs_modulus_pa: 1e7, poisson_ratio: 0.3, density_kg_m3: 2920.0 };
-//! let params = Params::new(&sand, &ContactSpec::default(), 1.5e-5).unwrap();
+//! let mut params = Params::new(&sand, &ContactSpec::default(), 1.5e-5).unwrap();
+//! params.gravity_m_s2 = Vector3::new(0.0, 0.0, -9.81);
 //! let mut p = Particles::new();
 //! p.push(Vector3::new(0.0, 0.0, 0.01), Vector3::zeros(), 1e-3, 2920.0).unwrap();
 //! let mut state = State::new(p);
@@ -99,11 +100,13 @@ pub struct Params {
 
 impl Params {
     /// Grains of `material` with contacts `spec` (Hertz–Mindlin), time step
-    /// `dt_s` (s), dry, standard gravity, no walls.
+    /// `dt_s` (s), dry, no walls and no gravity: a body force is the
+    /// caller's to set in [`Params::gravity_m_s2`], as LIGGGHTS asks for a
+    /// `fix gravity`.
     pub fn new(material: &Material, spec: &ContactSpec, dt_s: f64) -> Result<Params, DemError> {
         let params = Params {
             dt_s,
-            gravity_m_s2: Vector3::new(0.0, 0.0, -9.81),
+            gravity_m_s2: Vector3::zeros(),
             fluid_density_kg_m3: 0.0,
             particle_density_kg_m3: material.density_kg_m3,
             skin_m: 2e-4,

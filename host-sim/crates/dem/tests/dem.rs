@@ -54,13 +54,13 @@ fn sphere_mass(m: &Material, r: f64) -> f64 {
 /// a floor (z = 0) of the same material, moving along x at `v0` (m/s),
 /// with a 1.5e-5 s step.
 fn sphere_on_floor(mat: &Material, spec: &ContactSpec, r: f64, v0: f64) -> (Params, State) {
-    let mut params = Params::new(mat, spec, 1.5e-5).unwrap();
+    let mut params = with_gravity(Params::new(mat, spec, 1.5e-5).unwrap());
     params
         .walls
         .push(Wall::plane(Vector3::zeros(), Vector3::z(), mat, mat, spec).unwrap());
     let m = sphere_mass(mat, r);
     let k = 4.0 / 3.0 * mat.effective_modulus_pa(mat) * r.sqrt();
-    let rest = (m * 9.81 / k).powf(2.0 / 3.0);
+    let rest = (m * G / k).powf(2.0 / 3.0);
     let mut p = Particles::new();
     p.push(
         Vector3::new(0.0, 0.0, r - rest),
@@ -98,8 +98,12 @@ impl Sink for ImpactLog {
     }
 }
 
-fn no_gravity(mut p: Params) -> Params {
-    p.gravity_m_s2 = Vector3::zeros();
+/// Gravity of the tests that have it (m/s², along −z).
+const G: f64 = 9.81;
+
+/// `p` with gravity along −z.
+fn with_gravity(mut p: Params) -> Params {
+    p.gravity_m_s2 = Vector3::new(0.0, 0.0, -G);
     p
 }
 
@@ -116,7 +120,7 @@ fn wall_impact(
     let e_star = mat.effective_modulus_pa(&rigid());
     let (_, t_c) = hertz_answers(e_star, r, m, v * theta.cos());
     let dt = t_c / 2000.0;
-    let mut params = no_gravity(Params::new(mat, spec, dt).unwrap());
+    let mut params = Params::new(mat, spec, dt).unwrap();
     params.skin_m = 0.1 * r;
     params
         .walls
@@ -170,7 +174,7 @@ fn chung_ooi_1_elastic_sphere_sphere_peak_force_duration_and_momentum() {
     let e_star = mat.effective_modulus_pa(&mat);
     let (f_max, t_c) = hertz_answers(e_star, r / 2.0, m / 2.0, v);
     let dt = t_c / 2000.0;
-    let mut params = no_gravity(Params::new(&mat, &elastic(), dt).unwrap());
+    let mut params = Params::new(&mat, &elastic(), dt).unwrap();
     params.skin_m = 0.1 * r;
     let mut p = Particles::new();
     let gap = 10.0 * dt * v;
@@ -243,7 +247,7 @@ fn chung_ooi_3_damped_sphere_sphere_restitution_and_momentum() {
         let m = sphere_mass(&mat, r);
         let (_, t_c) = hertz_answers(mat.effective_modulus_pa(&mat), r / 2.0, m / 2.0, v);
         let dt = t_c / 2000.0;
-        let mut params = no_gravity(Params::new(&mat, &spec, dt).unwrap());
+        let mut params = Params::new(&mat, &spec, dt).unwrap();
         params.skin_m = 0.1 * r;
         let mut p = Particles::new();
         // Unequal speeds, slightly off-centre: momentum is still exact.
@@ -411,7 +415,7 @@ fn sand() -> Material {
 fn small_bed(layers: usize, fluid_kg_m3: f64) -> (Params, State) {
     let spec = ContactSpec::default();
     let mat = sand();
-    let mut params = Params::new(&mat, &spec, 1.5e-5).unwrap();
+    let mut params = with_gravity(Params::new(&mat, &spec, 1.5e-5).unwrap());
     params.fluid_density_kg_m3 = fluid_kg_m3;
     let l = 10.0e-3;
     for (point, normal) in [
@@ -463,7 +467,7 @@ fn submerged_settled_bed_walls_carry_its_buoyant_weight() {
         step(&params, &mut state, &mut log).unwrap();
     }
     let mean = log.sum_n / log.samples as f64;
-    let weight: f64 = state.particles.mass_kg.iter().sum::<f64>() * 9.81 * (1.0 - rho_w / 2920.0);
+    let weight: f64 = state.particles.mass_kg.iter().sum::<f64>() * G * (1.0 - rho_w / 2920.0);
     let ke = state.particles.kinetic_energy_j();
     eprintln!("bed of {}: walls carry {:.6e} N down, buoyant weight {weight:.6e} N ({:+.3} %), KE {ke:.2e} J, floor {:.4e} N", state.particles.len(), -mean.z, 100.0 * (-mean.z / weight - 1.0), -state.wall_forces_n()[4].z);
     assert!((-mean.z / weight - 1.0).abs() < 0.01);
@@ -560,7 +564,7 @@ fn constant_torque_rolling_resistance_decelerates_at_five_sevenths_mu_r_g() {
     let t = steps as f64 * 1.5e-5;
     let dv = v0 - state.particles.velocity_m_s[0].x;
     // R* for a wall contact is the radius; F_n ≈ m g.
-    let want = 5.0 / 7.0 * 0.1 * 9.81 * t;
+    let want = 5.0 / 7.0 * 0.1 * G * t;
     eprintln!("rolling resistance: Δv {dv:.5} m/s, (5/7) μ_r g t = {want:.5}");
     assert!((dv / want - 1.0).abs() < 0.02);
 }
@@ -571,7 +575,7 @@ fn cylinder_walls_carry_a_resting_sphere_from_inside_and_outside() {
     let spec = ContactSpec::default();
     let r = 1.0e-3;
     for side in [CylinderSide::Inside, CylinderSide::Outside] {
-        let mut params = Params::new(&mat, &spec, 1.5e-5).unwrap();
+        let mut params = with_gravity(Params::new(&mat, &spec, 1.5e-5).unwrap());
         params.fluid_density_kg_m3 = 1025.0;
         // Horizontal cylinder of radius 10 mm along x; the sphere rests at
         // its bottom (inside) or on its top (outside).
@@ -603,7 +607,7 @@ fn cylinder_walls_carry_a_resting_sphere_from_inside_and_outside() {
         for _ in 0..3_000 {
             step(&params, &mut state, &mut ()).unwrap();
         }
-        let w = state.particles.mass_kg[0] * 9.81 * params.buoyancy_factor();
+        let w = state.particles.mass_kg[0] * G * params.buoyancy_factor();
         let f = state.wall_forces_n()[0];
         eprintln!("{side:?}: wall force {f:?}, buoyant weight {w:.4e}");
         assert!((-f.z / w - 1.0).abs() < 0.01 && f.y.abs() < 1e-6 * w);
@@ -621,7 +625,7 @@ fn wall_culling_misses_no_contact() {
     let spec = ContactSpec::default();
     let r = 1.0e-3;
     let mut params = Params::new(&mat, &spec, 1.5e-5).unwrap();
-    params.gravity_m_s2 = Vector3::new(0.0, 0.0, -9.81);
+    params.gravity_m_s2 = Vector3::new(0.0, 0.0, -G);
     params
         .walls
         .push(Wall::plane(Vector3::zeros(), Vector3::z(), &mat, &mat, &spec).unwrap());
@@ -642,7 +646,7 @@ fn wall_culling_misses_no_contact() {
     }
     // It fell, touched (the floor carries its weight) and never sank
     // through: the deepest overlap is a Hertz one (≪ r).
-    let w = state.particles.mass_kg[0] * 9.81;
+    let w = state.particles.mass_kg[0] * G;
     let f = state.wall_forces_n()[0];
     eprintln!(
         "dropped sphere: lowest z {lowest:.4e} m, floor force {:.4e} N, weight {w:.4e} N",

@@ -20,7 +20,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use plotters::prelude::*;
 
 use ::plot::plot_err;
-use atomic_file::write_atomic;
+use datafile::write_atomic;
 use model::pressure_model::SkinSandModel;
 use sand::{SandLaw, BALLOON_FINAL_DIAMETER_MM, BALLOON_TABLE};
 use tables::{GeneratedTable, PressureModel, TableSpec};

@@ -17,7 +17,7 @@ use urechis::table::generated::TABLE;
 
 use super::run::{run, Trace};
 use super::scenario::named;
-use atomic_file::write_atomic;
+use datafile::write_atomic;
 
 /// Scenarios recorded for QEMU, with their seeds: both normal runs (every
 /// step of 20 cycles) and every fault path.

@@ -29,8 +29,7 @@ use rand_pcg::Pcg64Mcg;
 use urechis::controller::PressureSample;
 use urechis::drivers::ms5837::{GaugeZero, Measurement, Model, RawMeasurement};
 
-/// Standard atmosphere (kPa).
-pub const ATMOSPHERE_KPA: f64 = 101.325;
+pub use constants::ATMOSPHERE_KPA;
 
 /// How the sensor is read.
 #[derive(Clone, Copy, Debug, PartialEq)]

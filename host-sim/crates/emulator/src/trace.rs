@@ -22,7 +22,7 @@ use urechis::protocol::DeviceMessage;
 
 use super::outcome::Outcome;
 use super::run::Trace;
-use atomic_file::write_atomic;
+use datafile::write_atomic;
 use rig::telemetry::{to_experiment, Capture, ConvertOptions};
 use rig::Experiment;
 

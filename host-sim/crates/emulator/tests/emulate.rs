@@ -278,8 +278,11 @@ fn trapped_air_takes_its_boyle_volume_and_the_cycles_complete() {
     // At every step, pumped − in the head = V0·p/(P0 + p) (no other
     // effect holds volume): Boyle with P0 = atmosphere + water column.
     let rig = &trace.scenario.plant.rig;
-    let p0 =
-        101.325 + rig.fluid.density_kg_m3 * 9.80665e-6 * (rig.fluid.water_above_sand_mm + 40.0);
+    let p0 = constants::ATMOSPHERE_KPA
+        + rig.fluid.density_kg_m3
+            * constants::GRAVITY_M_S2
+            * 1e-6
+            * (rig.fluid.water_above_sand_mm + 40.0);
     let mut checked = 0;
     for s in trace.steps.iter().filter(|s| s.truth.internal_kpa > 1.0) {
         let held = s.truth.delivered_ml - s.truth.actuator_volume_ml;

@@ -27,9 +27,28 @@
 //!
 //! SI units throughout (m, kg, s, N, Pa), like the DEM it is coupled to.
 //!
+//! Any law that gives W(I1, I2) and its derivatives drives it; here a
+//! neo-Hookean one, W = C10 (I1 − 3):
+//!
 //! ```
-//! use fem::{Ends, Skin, SkinSpec};
-//! let mut skin = Skin::new(skin::default_skin(), &SkinSpec::paper(16, 4), Ends::Clamped).unwrap();
+//! use fem::{Ends, Skin, SkinSpec, StrainEnergy};
+//!
+//! #[derive(Debug)]
+//! struct NeoHookean { c10_kpa: f64 }
+//!
+//! impl StrainEnergy for NeoHookean {
+//!     fn name(&self) -> &'static str { "neo-Hookean" }
+//!     fn parameters_kpa(&self) -> Vec<f64> { vec![self.c10_kpa] }
+//!     fn energy_kpa(&self, i1: f64, _: f64) -> f64 { self.c10_kpa * (i1 - 3.0) }
+//!     fn dw_di1_kpa(&self, _: f64, _: f64) -> f64 { self.c10_kpa }
+//!     fn dw_di2_kpa(&self, _: f64, _: f64) -> f64 { 0.0 }
+//!     fn d2w_di1_di1_kpa(&self, _: f64, _: f64) -> f64 { 0.0 }
+//!     fn d2w_di1_di2_kpa(&self, _: f64, _: f64) -> f64 { 0.0 }
+//!     fn d2w_di2_di2_kpa(&self, _: f64, _: f64) -> f64 { 0.0 }
+//! }
+//!
+//! let law = NeoHookean { c10_kpa: 10.0 };
+//! let mut skin = Skin::new(law, &SkinSpec::paper(16, 4), Ends::Clamped).unwrap();
 //! skin.pressure_pa = 500.0;
 //! skin.relax(1e-4, 200_000).unwrap();
 //! assert!(skin.outer_diameter_at_mid_length_m() > 18.7e-3);

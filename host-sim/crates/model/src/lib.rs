@@ -30,15 +30,15 @@ use serde::Serialize;
 use urechis::controller::geometry::ExpansionZone;
 
 use crate::effects::{Effect, EffectInstance, EffectState, StepContext};
+use constants::GRAVITY_M_S2;
 use rig::{Rig, Run};
-use sand::{ParametricSand, SandHistory, SandLaw, SandParams, GRAVITY_M_S2};
+use sand::{ParametricSand, SandHistory, SandLaw, SandParams};
 
 pub use cycles::{CycleDetector, Phase, HOLD_FLOW_ML_S};
 pub use membrane_curve::MembraneCurve;
 pub use params::{ParamSpec, Params, BASELINE_PARAMS};
 
-/// Standard atmosphere (kPa).
-pub const ATMOSPHERE_KPA: f64 = 101.325;
+pub use constants::ATMOSPHERE_KPA;
 
 /// What the model takes from the rig and never fits: geometry, the skin
 /// curve, the sand's base law. Built once per rig and shared by every

@@ -13,13 +13,12 @@
 //! survive a read/write round trip.
 
 use std::collections::BTreeMap;
-use std::fmt;
 use std::path::Path;
 
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 
-use atomic_file::write_atomic;
+use datafile::{decode_utf8, write_atomic, DataError, Table, TomlDoc};
 
 pub mod telemetry;
 
@@ -28,35 +27,6 @@ pub const RIG_FILE: &str = "rig.toml";
 
 /// Name of the time-series file [`Experiment::write`] writes.
 pub const RUNS_FILE: &str = "runs.csv";
-
-/// A malformed experiment file: which file, which line (1-based, when one
-/// can be named) and what is wrong, with the key or column in the message.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-pub struct FormatError {
-    /// File name inside the folder (`rig.toml`, `runs.csv`, …).
-    pub file: String,
-    /// 1-based line, when the problem sits on one.
-    pub line: Option<u64>,
-    /// What is wrong, naming the key or column.
-    pub message: String,
-}
-
-impl fmt::Display for FormatError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.line {
-            Some(line) => write!(f, "{} line {}: {}", self.file, line, self.message),
-            None => write!(f, "{}: {}", self.file, self.message),
-        }
-    }
-}
-
-fn format_error(file: &str, line: Option<u64>, message: impl Into<String>) -> FormatError {
-    FormatError {
-        file: file.to_owned(),
-        line,
-        message: message.into(),
-    }
-}
 
 // ---------------------------------------------------------------------------
 // rig.toml
@@ -288,75 +258,42 @@ impl Range {
     }
 }
 
-/// A parsed `rig.toml` with a way to name the line of any key.
+/// A parsed `rig.toml`: its values and the line of any key.
 struct RigDoc<'a> {
-    file: &'a str,
-    text: &'a str,
-    values: toml::Table,
-    spans: toml::de::DeTable<'a>,
+    doc: TomlDoc<'a>,
 }
 
 impl<'a> RigDoc<'a> {
-    fn parse(file: &'a str, text: &'a str) -> Result<Self, FormatError> {
-        let values: toml::Table = text
-            .parse()
-            .map_err(|e: toml::de::Error| format_error(file, None, e.to_string().trim_end()))?;
-        let spans = toml::de::DeTable::parse(text)
-            .map_err(|e| format_error(file, None, e.to_string().trim_end()))?
-            .into_inner();
+    fn parse(file: &str, text: &'a str) -> Result<Self, DataError> {
         Ok(RigDoc {
-            file,
-            text,
-            values,
-            spans,
+            doc: TomlDoc::parse(file, text)?,
         })
     }
 
-    fn line_at(&self, offset: usize) -> u64 {
-        let before = self.text.get(..offset).unwrap_or(self.text);
-        before.bytes().filter(|&b| b == b'\n').count() as u64 + 1
+    /// `key` (`section.key`) is missing: where, the file cannot say.
+    fn missing_key(&self, section: &str, key: &str) -> DataError {
+        DataError::new(self.doc.file(), "missing key").with_key(format!("{section}.{key}"))
     }
 
-    /// Line of `[section]` (or of `key` inside it).
-    fn line(&self, section: &str, key: Option<&str>) -> Option<u64> {
-        let (sk, sv) = self.spans.iter().find(|(k, _)| k.get_ref() == section)?;
-        let Some(key) = key else {
-            return Some(self.line_at(sk.span().start));
-        };
-        let toml::de::DeValue::Table(t) = sv.get_ref() else {
-            return None;
-        };
-        let (kk, _) = t.iter().find(|(k, _)| k.get_ref() == key)?;
-        Some(self.line_at(kk.span().start))
-    }
-
-    fn err(&self, section: &str, key: Option<&str>, message: String) -> FormatError {
-        format_error(self.file, self.line(section, key), message)
-    }
-
-    fn section(&self, name: &str) -> Result<Option<&toml::Table>, FormatError> {
-        match self.values.get(name) {
+    fn section(&self, name: &str) -> Result<Option<&toml::Table>, DataError> {
+        match self.doc.values().get(name) {
             None => Ok(None),
             Some(toml::Value::Table(t)) => Ok(Some(t)),
-            Some(other) => Err(self.err(
-                name,
-                None,
-                format!(
-                    "`{name}` must be a section [{name}], found a {}",
-                    other.type_str()
-                ),
+            Some(other) => Err(self.doc.error(
+                &[name],
+                format!("must be a section [{name}], found a {}", other.type_str()),
             )),
         }
     }
 
-    fn require_section(&self, name: &str) -> Result<&toml::Table, FormatError> {
+    fn require_section(&self, name: &str) -> Result<&toml::Table, DataError> {
         self.section(name)?
-            .ok_or_else(|| format_error(self.file, None, format!("missing section [{name}]")))
+            .ok_or_else(|| DataError::new(self.doc.file(), "missing section").with_key(name))
     }
 
-    fn number(&self, section: &str, key: &str, range: Range) -> Result<f64, FormatError> {
+    fn number(&self, section: &str, key: &str, range: Range) -> Result<f64, DataError> {
         self.optional_number(section, key, range)?
-            .ok_or_else(|| format_error(self.file, None, format!("missing key `{section}.{key}`")))
+            .ok_or_else(|| self.missing_key(section, key))
     }
 
     fn optional_number(
@@ -364,7 +301,7 @@ impl<'a> RigDoc<'a> {
         section: &str,
         key: &str,
         range: Range,
-    ) -> Result<Option<f64>, FormatError> {
+    ) -> Result<Option<f64>, DataError> {
         let Some(value) = self.section(section)?.and_then(|t| t.get(key)) else {
             return Ok(None);
         };
@@ -373,40 +310,32 @@ impl<'a> RigDoc<'a> {
             // Integers convert exactly up to 2^53, far beyond any quantity here.
             toml::Value::Integer(i) => *i as f64,
             other => {
-                return Err(self.err(
-                    section,
-                    Some(key),
-                    format!(
-                        "key `{section}.{key}`: expected a number, found a {} ({other})",
-                        other.type_str()
-                    ),
+                return Err(self.doc.error(
+                    &[section, key],
+                    format!("expected a number, found a {} ({other})", other.type_str()),
                 ))
             }
         };
         if !range.accepts(v) {
-            return Err(self.err(
-                section,
-                Some(key),
-                format!("key `{section}.{key}`: {v} is not {}", range.describe()),
-            ));
+            return Err(self
+                .doc
+                .error(&[section, key], format!("{v} is not {}", range.describe())));
         }
         Ok(Some(v))
     }
 
-    fn pressure_source(&self) -> Result<PressureSource, FormatError> {
+    fn pressure_source(&self) -> Result<PressureSource, DataError> {
         let (section, key) = ("measurement", "pressure_source");
-        let value = self.require_section(section)?.get(key).ok_or_else(|| {
-            format_error(self.file, None, format!("missing key `{section}.{key}`"))
-        })?;
+        let value = self
+            .require_section(section)?
+            .get(key)
+            .ok_or_else(|| self.missing_key(section, key))?;
         match value.as_str() {
             Some("line_sensor") => Ok(PressureSource::LineSensor),
             Some("piston_force") => Ok(PressureSource::PistonForce),
-            _ => Err(self.err(
-                section,
-                Some(key),
-                format!(
-                    "key `{section}.{key}`: {value} is not \"line_sensor\" or \"piston_force\""
-                ),
+            _ => Err(self.doc.error(
+                &[section, key],
+                format!("{value} is not \"line_sensor\" or \"piston_force\""),
             )),
         }
     }
@@ -414,15 +343,16 @@ impl<'a> RigDoc<'a> {
     /// Unknown sections and keys, one warning each.
     fn unknown_keys(&self) -> Vec<String> {
         let mut warnings = Vec::new();
+        let file = self.doc.file();
         let at = |line: Option<u64>| match line {
-            Some(l) => format!("{} line {l}", self.file),
-            None => self.file.to_owned(),
+            Some(l) => format!("{file} line {l}"),
+            None => file.to_owned(),
         };
-        for (name, value) in &self.values {
+        for (name, value) in self.doc.values() {
             let Some(schema) = SCHEMA.iter().find(|s| s.name == name) else {
                 warnings.push(format!(
                     "{}: unknown section or key `{name}` ignored",
-                    at(self.line(name, None))
+                    at(self.doc.line(&[name]))
                 ));
                 continue;
             };
@@ -431,7 +361,7 @@ impl<'a> RigDoc<'a> {
                     if !schema.keys.iter().any(|(k, _)| k == key) {
                         warnings.push(format!(
                             "{}: unknown key `{name}.{key}` ignored",
-                            at(self.line(name, Some(key)))
+                            at(self.doc.line(&[name, key]))
                         ));
                     }
                 }
@@ -476,7 +406,7 @@ impl Rig {
                 friction: 0.25,
             }),
             fluid: Fluid {
-                density_kg_m3: 1025.0,
+                density_kg_m3: constants::SEAWATER_DENSITY_KG_M3,
                 water_above_sand_mm: 180.0,
             },
             container: Some(Container {
@@ -496,7 +426,7 @@ impl Rig {
     /// Parses `rig.toml` text; `file` names it in errors. Returns the rig and
     /// the warnings (unknown sections and keys). Whether `[sand]` is needed
     /// depends on the runs, so [`Experiment::parse`] checks that.
-    pub fn parse(file: &str, text: &str) -> Result<(Rig, Vec<String>), FormatError> {
+    pub fn parse(file: &str, text: &str) -> Result<(Rig, Vec<String>), DataError> {
         let doc = RigDoc::parse(file, text)?;
         let warnings = doc.unknown_keys();
         for schema in SCHEMA {
@@ -510,11 +440,7 @@ impl Rig {
             if let Some(table) = table {
                 for (key, needed) in schema.keys {
                     if *needed && !table.contains_key(*key) {
-                        return Err(format_error(
-                            file,
-                            None,
-                            format!("missing key `{section}.{key}`"),
-                        ));
+                        return Err(doc.missing_key(section, key));
                     }
                 }
             }
@@ -568,12 +494,10 @@ impl Rig {
         };
         let a = &rig.actuator;
         if a.skin_thickness_mm >= a.initial_diameter_mm / 2.0 {
-            return Err(doc.err(
-                "actuator",
-                Some("skin_thickness_mm"),
+            return Err(doc.doc.error(
+                &["actuator", "skin_thickness_mm"],
                 format!(
-                    "key `actuator.skin_thickness_mm`: {} is not below half of \
-                     `actuator.initial_diameter_mm` ({})",
+                    "{} is not below half of `actuator.initial_diameter_mm` ({})",
                     a.skin_thickness_mm, a.initial_diameter_mm
                 ),
             ));
@@ -696,42 +620,36 @@ struct Header {
 }
 
 impl RunCollector {
-    fn header(&mut self, file: &str, names: &csv::StringRecord) -> Result<Header, FormatError> {
+    fn header(&mut self, table: &Table<'_>) -> Result<Header, DataError> {
+        let (file, names) = (table.file(), table.columns());
         let mut seen: BTreeMap<&str, usize> = BTreeMap::new();
         for (i, name) in names.iter().enumerate() {
             if name.is_empty() {
-                return Err(format_error(
-                    file,
-                    Some(1),
-                    format!("column {} has no name", i + 1),
-                ));
+                return Err(table.header_error(format!("column {} has no name", i + 1)));
             }
             if seen.insert(name, i).is_some() {
-                return Err(format_error(
-                    file,
-                    Some(1),
-                    format!("column `{name}` appears twice"),
-                ));
+                return Err(table
+                    .header_error("appears twice in the header")
+                    .with_key(name.as_str()));
             }
         }
         let mut required = [0; 5];
         for (slot, column) in required.iter_mut().zip(REQUIRED_COLUMNS) {
-            *slot = *seen
-                .get(column)
-                .ok_or_else(|| format_error(file, Some(1), format!("missing column `{column}`")))?;
+            *slot = table.require(column)?;
         }
         let mut extra = Vec::new();
         for (i, name) in names.iter().enumerate() {
-            if REQUIRED_COLUMNS.contains(&name) || name == DIAMETER_COLUMN {
+            if REQUIRED_COLUMNS.contains(&name.as_str()) || name == DIAMETER_COLUMN {
                 continue;
             }
             self.warnings.push(format!(
-                "{file} line 1: column `{name}` is not in the format; kept as text, ignored by the tools"
+                "{file} line {}: column `{name}` is not in the format; kept as text, ignored by the tools",
+                table.header_line()
             ));
             let slot = match self.extra_columns.iter().position(|c| c == name) {
                 Some(slot) => slot,
                 None => {
-                    self.extra_columns.push(name.to_owned());
+                    self.extra_columns.push(name.clone());
                     for sample in self.runs.iter_mut().flat_map(|r| r.samples.iter_mut()) {
                         sample.extra.push(String::new());
                     }
@@ -742,37 +660,25 @@ impl RunCollector {
         }
         Ok(Header {
             required,
-            diameter: seen.get(DIAMETER_COLUMN).copied(),
+            diameter: table.column(DIAMETER_COLUMN),
             extra,
         })
     }
 
-    fn file(&mut self, file: &str, text: &str) -> Result<(), FormatError> {
-        let mut reader = csv::ReaderBuilder::new()
-            .has_headers(true)
-            .trim(csv::Trim::All)
-            .from_reader(text.as_bytes());
-        let names = reader.headers().map_err(|e| csv_error(file, &e))?.clone();
-        let header = self.header(file, &names)?;
+    fn file(&mut self, file: &str, text: &str) -> Result<(), DataError> {
+        let mut table = Table::parse(file, text.as_bytes())?;
+        let header = self.header(&table)?;
         // Which run this file is filling, as an index into `runs`.
         let mut current: Option<usize> = None;
         let mut rows = 0usize;
-        for record in reader.records() {
-            let record = record.map_err(|e| csv_error(file, &e))?;
-            let line = record.position().map_or(0, |p| p.line());
+        for row in table.rows() {
+            let row = row?;
+            let line = row.line();
             rows += 1;
-            let field = |column: usize| record.get(column).unwrap_or("");
-            let number = |slot: usize| -> Result<f64, FormatError> {
-                parse_number(
-                    file,
-                    line,
-                    REQUIRED_COLUMNS[slot],
-                    field(header.required[slot]),
-                )
-            };
-            let id = field(header.required[0]);
+            let number = |slot: usize| row.number(header.required[slot]);
+            let id = row.get(header.required[0]);
             if id.is_empty() {
-                return Err(format_error(file, Some(line), "column `run`: empty run id"));
+                return Err(row.error("run", "empty run id"));
             }
             let t_s = number(1)?;
             let depth_mm = number(2)?;
@@ -780,41 +686,32 @@ impl RunCollector {
                 t_s,
                 volume_ml: number(3)?,
                 pressure_kpa: number(4)?,
-                diameter_mm: match header.diameter.map(field) {
-                    None | Some("") => None,
-                    Some(text) => Some(parse_number(file, line, DIAMETER_COLUMN, text)?),
+                diameter_mm: match header.diameter {
+                    Some(column) if !row.get(column).is_empty() => Some(row.number(column)?),
+                    _ => None,
                 },
                 extra: {
                     let mut extra = vec![String::new(); self.extra_columns.len()];
                     for &(column, slot) in &header.extra {
                         if let Some(v) = extra.get_mut(slot) {
-                            *v = field(column).to_owned();
+                            *v = row.get(column).to_owned();
                         }
                     }
                     extra
                 },
             };
             if t_s < 0.0 {
-                return Err(format_error(
-                    file,
-                    Some(line),
-                    format!("column `t_s`: {t_s} is negative (time since the start of the run)"),
+                return Err(row.error(
+                    "t_s",
+                    format!("{t_s} is negative (time since the start of the run)"),
                 ));
             }
             if depth_mm < 0.0 {
-                return Err(format_error(
-                    file,
-                    Some(line),
-                    format!("column `depth_mm`: {depth_mm} is negative"),
-                ));
+                return Err(row.error("depth_mm", format!("{depth_mm} is negative")));
             }
             if let Some(d) = sample.diameter_mm {
                 if d <= 0.0 {
-                    return Err(format_error(
-                        file,
-                        Some(line),
-                        format!("column `{DIAMETER_COLUMN}`: {d} is not > 0"),
-                    ));
+                    return Err(row.error(DIAMETER_COLUMN, format!("{d} is not > 0")));
                 }
             }
             let same_run = current.is_some_and(|i| self.runs.get(i).is_some_and(|r| r.id == id));
@@ -829,24 +726,22 @@ impl RunCollector {
                 continue;
             };
             if depth_mm != run.depth_mm {
-                return Err(format_error(
-                    file,
-                    Some(line),
+                return Err(row.error(
+                    "depth_mm",
                     format!(
-                        "column `depth_mm`: {depth_mm} differs from the depth {} of run `{id}` \
-                         (line {}); depth must be constant within a run",
+                        "{depth_mm} differs from the depth {} of run `{id}` (line {}); depth \
+                         must be constant within a run",
                         run.depth_mm, origin.first_line
                     ),
                 ));
             }
             if let Some(prev) = run.samples.last() {
                 if t_s <= prev.t_s {
-                    return Err(format_error(
-                        file,
-                        Some(line),
+                    return Err(row.error(
+                        "t_s",
                         format!(
-                            "column `t_s`: {t_s} is not after {} (line {}); rows of run `{id}` \
-                             must be in increasing time",
+                            "{t_s} is not after {} (line {}); rows of run `{id}` must be in \
+                             increasing time",
                             prev.t_s, origin.last_line
                         ),
                     ));
@@ -867,7 +762,7 @@ impl RunCollector {
         line: u64,
         id: &str,
         depth_mm: f64,
-    ) -> Result<usize, FormatError> {
+    ) -> Result<usize, DataError> {
         if let Some(origin) = self.index.get(id).and_then(|&i| self.origins.get(i)) {
             let message = if origin.file == file {
                 format!(
@@ -882,7 +777,9 @@ impl RunCollector {
                     origin.file, origin.first_line, origin.last_line
                 )
             };
-            return Err(format_error(file, Some(line), message));
+            return Err(DataError::new(file, message)
+                .with_line(line)
+                .with_key("run"));
         }
         self.runs.push(Run {
             id: id.to_owned(),
@@ -898,41 +795,6 @@ impl RunCollector {
         self.index.insert(id.to_owned(), index);
         Ok(index)
     }
-}
-
-fn parse_number(file: &str, line: u64, column: &str, text: &str) -> Result<f64, FormatError> {
-    if text.is_empty() {
-        return Err(format_error(
-            file,
-            Some(line),
-            format!("column `{column}`: empty"),
-        ));
-    }
-    match text.parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
-        Ok(_) => Err(format_error(
-            file,
-            Some(line),
-            format!("column `{column}`: `{text}` is not a finite number"),
-        )),
-        Err(_) => Err(format_error(
-            file,
-            Some(line),
-            format!("column `{column}`: `{text}` is not a number"),
-        )),
-    }
-}
-
-fn csv_error(file: &str, e: &csv::Error) -> FormatError {
-    let line = e.position().map(|p| p.line());
-    let message = match e.kind() {
-        csv::ErrorKind::UnequalLengths {
-            expected_len, len, ..
-        } => format!("{len} fields, but the header has {expected_len}"),
-        csv::ErrorKind::Utf8 { .. } => "not valid UTF-8".to_owned(),
-        _ => e.to_string(),
-    };
-    format_error(file, line, message)
 }
 
 impl Experiment {
@@ -953,7 +815,7 @@ impl Experiment {
 
     /// Parses a folder given as text: `rig.toml` and the CSV files as
     /// (name, text) in the order to read them. Names appear in errors.
-    pub fn parse(rig_toml: &str, csv_files: &[(&str, &str)]) -> Result<Experiment, FormatError> {
+    pub fn parse(rig_toml: &str, csv_files: &[(&str, &str)]) -> Result<Experiment, DataError> {
         let (rig, mut warnings) = Rig::parse(RIG_FILE, rig_toml)?;
         let mut collector = RunCollector::default();
         for (name, text) in csv_files {
@@ -967,11 +829,7 @@ impl Experiment {
             } else {
                 names.join(", ")
             };
-            return Err(format_error(
-                &file,
-                None,
-                "no samples: the folder holds no run",
-            ));
+            return Err(DataError::new(file, "no samples: the folder holds no run"));
         }
         if rig.sand.is_none() {
             let buried = collector
@@ -980,15 +838,15 @@ impl Experiment {
                 .zip(&collector.origins)
                 .find(|(r, _)| r.depth_mm > 0.0);
             if let Some((run, origin)) = buried {
-                return Err(format_error(
+                return Err(DataError::new(
                     RIG_FILE,
-                    None,
                     format!(
-                        "missing section [sand], required because run `{}` ({} line {}) has \
+                        "missing section, required because run `{}` ({} line {}) has \
                          depth_mm = {}",
                         run.id, origin.file, origin.first_line, run.depth_mm
                     ),
-                ));
+                )
+                .with_key("sand"));
             }
         }
         Ok(Experiment {
@@ -1012,16 +870,8 @@ impl Experiment {
             let path = dir.join(&name);
             let bytes =
                 std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-            let text = String::from_utf8(bytes).map_err(|e| {
-                let valid = e.utf8_error().valid_up_to();
-                let line = e.as_bytes()[..valid]
-                    .iter()
-                    .filter(|&&b| b == b'\n')
-                    .count()
-                    + 1;
-                format_error(&name, Some(line as u64), "not valid UTF-8")
-            });
-            csv_files.push((name, text.with_context(context)?));
+            let text = decode_utf8(&name, bytes).with_context(context)?;
+            csv_files.push((name, text));
         }
         let files: Vec<(&str, &str)> = csv_files
             .iter()

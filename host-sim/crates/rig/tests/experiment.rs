@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use datafile::DataError;
 use proptest::prelude::*;
 use rig::telemetry::{
     convert_file, decode_capture, encode_capture, to_experiment, ConvertOptions, EXTRA_COLUMNS,
@@ -53,8 +54,19 @@ fn read_error(files: &[(&str, &str)]) -> String {
     format!("{err:#}")
 }
 
-fn assert_error(files: &[(&str, &str)], expected: &str) {
-    let got = read_error(files);
+/// Where a data file's error sits: file, line, key or column.
+type Place<'a> = (&'a str, Option<u64>, Option<&'a str>);
+
+/// Reading `files` as a folder fails with a data file's error at `place`,
+/// the full chain containing `expected`.
+fn assert_error(files: &[(&str, &str)], place: Place<'_>, expected: &str) {
+    let dir = folder(files);
+    let err = Experiment::read(dir.path()).expect_err("must be rejected");
+    let got = format!("{err:#}");
+    let e = err
+        .downcast_ref::<DataError>()
+        .unwrap_or_else(|| panic!("not a data file's error: {got}"));
+    assert_eq!((e.file.as_str(), e.line, e.key.as_deref()), place, "{got}");
     assert!(
         got.contains(expected),
         "error was:\n{got}\nexpected to contain:\n{expected}"
@@ -286,11 +298,34 @@ fn spreadsheet_exports_read() {
 // Errors name file, line and key or column.
 
 #[test]
+fn lines_count_every_line_of_the_file() {
+    // CRLF, a byte-order mark and an empty line: the bad value is on line 4.
+    let runs = "\u{feff}run,t_s,depth_mm,volume_ml,pressure_kpa\r\na,0,0,0,1\r\n\r\na,1,0,x,1\r\n";
+    assert_error(
+        &[(RIG_FILE, RIG_NO_SAND), ("runs.csv", runs)],
+        ("runs.csv", Some(4), Some("volume_ml")),
+        "runs.csv:4: volume_ml: `x` is not a number",
+    );
+    // Bytes that are not UTF-8 name their line.
+    let dir = folder(&[(RIG_FILE, RIG_NO_SAND)]);
+    let runs = b"run,t_s,depth_mm,volume_ml,pressure_kpa\na,0,0,0,1\na,1,0,0,\xff\n";
+    std::fs::write(dir.path().join("runs.csv"), runs).unwrap();
+    let err = Experiment::read(dir.path()).unwrap_err();
+    let e = err.downcast_ref::<DataError>().unwrap();
+    assert_eq!(
+        (e.file.as_str(), e.line, e.message.as_str()),
+        ("runs.csv", Some(3), "not valid UTF-8"),
+        "{err:#}"
+    );
+}
+
+#[test]
 fn not_a_number_names_line_and_column() {
     let runs = "run,t_s,depth_mm,volume_ml,pressure_kpa\na,0,40,0,0.1\na,0.02,40,0.01,abc\n";
     assert_error(
         &[(RIG_FILE, &paper_rig_text()), ("runs.csv", runs)],
-        "runs.csv line 3: column `pressure_kpa`: `abc` is not a number",
+        ("runs.csv", Some(3), Some("pressure_kpa")),
+        "runs.csv:3: pressure_kpa: `abc` is not a number",
     );
 }
 
@@ -303,28 +338,32 @@ fn non_finite_and_empty_values_are_errors() {
             (RIG_FILE, &rig),
             ("runs.csv", &format!("{header}a,0,0,NaN,1\n")),
         ],
-        "runs.csv line 2: column `volume_ml`: `NaN` is not a finite number",
+        ("runs.csv", Some(2), Some("volume_ml")),
+        "runs.csv:2: volume_ml: `NaN` is not a finite number",
     );
     assert_error(
         &[
             (RIG_FILE, &rig),
             ("runs.csv", &format!("{header}a,,0,0,1\n")),
         ],
-        "runs.csv line 2: column `t_s`: empty",
+        ("runs.csv", Some(2), Some("t_s")),
+        "runs.csv:2: t_s: empty",
     );
     assert_error(
         &[
             (RIG_FILE, &rig),
             ("runs.csv", &format!("{header}a,0,0,0,1\n,1,0,0,1\n")),
         ],
-        "runs.csv line 3: column `run`: empty run id",
+        ("runs.csv", Some(3), Some("run")),
+        "runs.csv:3: run: empty run id",
     );
     assert_error(
         &[
             (RIG_FILE, &rig),
             ("runs.csv", &format!("{header}a,-1,0,0,1\n")),
         ],
-        "runs.csv line 2: column `t_s`: -1 is negative",
+        ("runs.csv", Some(2), Some("t_s")),
+        "runs.csv:2: t_s: -1 is negative",
     );
 }
 
@@ -339,7 +378,8 @@ fn missing_rig_key_is_named() {
                 "run,t_s,depth_mm,volume_ml,pressure_kpa\na,0,0,0,1\n",
             ),
         ],
-        "rig.toml: missing key `actuator.initial_diameter_mm`",
+        ("rig.toml", None, Some("actuator.initial_diameter_mm")),
+        "rig.toml: actuator.initial_diameter_mm: missing key",
     );
     let rig = RIG_NO_SAND.replace("[pump]\nsyringe_bore_mm = 29.21\n", "");
     assert_error(
@@ -350,7 +390,8 @@ fn missing_rig_key_is_named() {
                 "run,t_s,depth_mm,volume_ml,pressure_kpa\na,0,0,0,1\n",
             ),
         ],
-        "rig.toml: missing section [pump]",
+        ("rig.toml", None, Some("pump")),
+        "rig.toml: pump: missing section",
     );
 }
 
@@ -364,26 +405,33 @@ fn bad_rig_values_name_their_line() {
     let rig = RIG_NO_SAND.replace("expansion_length_mm = 20.0", "expansion_length_mm = \"20\"");
     assert_error(
         &[(RIG_FILE, &rig), runs],
-        "rig.toml line 4: key `actuator.expansion_length_mm`: expected a number, found a string",
+        ("rig.toml", Some(4), Some("actuator.expansion_length_mm")),
+        "rig.toml:4: actuator.expansion_length_mm: expected a number, found a string",
     );
     let rig = RIG_NO_SAND.replace("\"piston_force\"", "\"manometer\"");
     assert_error(
         &[(RIG_FILE, &rig), runs],
-        "rig.toml line 15: key `measurement.pressure_source`: \"manometer\" is not \"line_sensor\" or \"piston_force\"",
+        ("rig.toml", Some(15), Some("measurement.pressure_source")),
+        "rig.toml:15: measurement.pressure_source: \"manometer\" is not \"line_sensor\" or \"piston_force\"",
     );
     let rig = format!("{RIG_NO_SAND}\n[sand]\ngrain_radius_mm = 0.36\ngrain_density_kg_m3 = 2920\nporosity = 1.4\nfriction = 0.25\n");
     assert_error(
         &[(RIG_FILE, &rig), runs],
-        "rig.toml line 20: key `sand.porosity`: 1.4 is not a number strictly between 0 and 1",
+        ("rig.toml", Some(20), Some("sand.porosity")),
+        "rig.toml:20: sand.porosity: 1.4 is not a number strictly between 0 and 1",
     );
     let rig = RIG_NO_SAND.replace("skin_thickness_mm = 1.75", "skin_thickness_mm = 9.35");
     assert_error(
         &[(RIG_FILE, &rig), runs],
-        "rig.toml line 5: key `actuator.skin_thickness_mm`: 9.35 is not below half of `actuator.initial_diameter_mm` (18.7)",
+        ("rig.toml", Some(5), Some("actuator.skin_thickness_mm")),
+        "rig.toml:5: actuator.skin_thickness_mm: 9.35 is not below half of `actuator.initial_diameter_mm` (18.7)",
     );
     let rig = RIG_NO_SAND.replace("[pump]", "[pump");
-    let got = read_error(&[(RIG_FILE, &rig), runs]);
-    assert!(got.contains("rig.toml") && got.contains("line 11"), "{got}");
+    assert_error(
+        &[(RIG_FILE, &rig), runs],
+        ("rig.toml", Some(11), None),
+        "rig.toml:11: unclosed table, expected `]` (column 6)",
+    );
 }
 
 #[test]
@@ -412,14 +460,16 @@ fn header_problems_are_named() {
             (RIG_FILE, &rig),
             ("runs.csv", "run,t_s,depth_mm,pressure_kpa\na,0,0,1\n"),
         ],
-        "runs.csv line 1: missing column `volume_ml`",
+        ("runs.csv", Some(1), Some("volume_ml")),
+        "runs.csv:1: volume_ml: missing column",
     );
     assert_error(
         &[
             (RIG_FILE, &rig),
             ("runs.csv", "run,t_s,t_s,depth_mm,volume_ml,pressure_kpa\n"),
         ],
-        "runs.csv line 1: column `t_s` appears twice",
+        ("runs.csv", Some(1), Some("t_s")),
+        "runs.csv:1: t_s: appears twice in the header",
     );
     assert_error(
         &[
@@ -429,7 +479,8 @@ fn header_problems_are_named() {
                 "run,t_s,depth_mm,volume_ml,pressure_kpa\na,0,0,0,1\na,1,0,0\n",
             ),
         ],
-        "runs.csv line 3: 4 fields, but the header has 5",
+        ("runs.csv", Some(3), None),
+        "runs.csv:3: 4 fields, but the header has 5",
     );
 }
 
@@ -438,12 +489,14 @@ fn rows_must_be_in_time_order() {
     let runs = "run,t_s,depth_mm,volume_ml,pressure_kpa\na,0,0,0,1\na,0.02,0,0,1\na,0.01,0,0,1\n";
     assert_error(
         &[(RIG_FILE, RIG_NO_SAND), ("runs.csv", runs)],
-        "runs.csv line 4: column `t_s`: 0.01 is not after 0.02 (line 3); rows of run `a` must be in increasing time",
+        ("runs.csv", Some(4), Some("t_s")),
+        "runs.csv:4: t_s: 0.01 is not after 0.02 (line 3); rows of run `a` must be in increasing time",
     );
     let repeated = "run,t_s,depth_mm,volume_ml,pressure_kpa\na,0,0,0,1\na,0,0,0,1\n";
     assert_error(
         &[(RIG_FILE, RIG_NO_SAND), ("runs.csv", repeated)],
-        "runs.csv line 3: column `t_s`: 0 is not after 0 (line 2)",
+        ("runs.csv", Some(3), Some("t_s")),
+        "runs.csv:3: t_s: 0 is not after 0 (line 2)",
     );
 }
 
@@ -453,7 +506,8 @@ fn a_run_must_be_contiguous_and_in_one_file() {
         "run,t_s,depth_mm,volume_ml,pressure_kpa\na,0,0,0,1\na,1,0,0,1\nb,0,0,0,1\na,2,0,0,1\n";
     assert_error(
         &[(RIG_FILE, RIG_NO_SAND), ("runs.csv", interleaved)],
-        "runs.csv line 5: run `a` continues after other rows (it ran from line 2 to 3)",
+        ("runs.csv", Some(5), Some("run")),
+        "runs.csv:5: run: run `a` continues after other rows (it ran from line 2 to 3)",
     );
     let header = "run,t_s,depth_mm,volume_ml,pressure_kpa\n";
     assert_error(
@@ -462,7 +516,8 @@ fn a_run_must_be_contiguous_and_in_one_file() {
             ("1.csv", &format!("{header}x,0,0,0,1\nx,1,0,0,1\n")),
             ("2.csv", &format!("{header}y,0,0,0,1\nx,2,0,0,1\n")),
         ],
-        "2.csv line 3: run `x` already appeared in 1.csv (lines 2–3)",
+        ("2.csv", Some(3), Some("run")),
+        "2.csv:3: run: run `x` already appeared in 1.csv (lines 2–3)",
     );
 }
 
@@ -471,7 +526,8 @@ fn depth_must_be_constant_within_a_run() {
     let runs = "run,t_s,depth_mm,volume_ml,pressure_kpa\na,0,40,0,1\na,1,40,0,1\na,2,50,0,1\n";
     assert_error(
         &[(RIG_FILE, &paper_rig_text()), ("runs.csv", runs)],
-        "runs.csv line 4: column `depth_mm`: 50 differs from the depth 40 of run `a` (line 2)",
+        ("runs.csv", Some(4), Some("depth_mm")),
+        "runs.csv:4: depth_mm: 50 differs from the depth 40 of run `a` (line 2)",
     );
 }
 
@@ -483,7 +539,8 @@ fn sand_is_required_only_below_sand() {
     let buried = format!("{free}h40,0,40,0,1\n");
     assert_error(
         &[(RIG_FILE, RIG_NO_SAND), ("runs.csv", &buried)],
-        "rig.toml: missing section [sand], required because run `h40` (runs.csv line 3) has depth_mm = 40",
+        ("rig.toml", None, Some("sand")),
+        "rig.toml: sand: missing section, required because run `h40` (runs.csv line 3) has depth_mm = 40",
     );
 }
 
@@ -530,7 +587,7 @@ fn write_refuses_what_would_not_read_back() {
     let first = unordered.runs[0].samples[0].clone();
     unordered.runs[0].samples.push(first);
     let err = format!("{:#}", unordered.write(empty_dir.path()).unwrap_err());
-    assert!(err.contains("column `t_s`: 0 is not after 0"), "{err}");
+    assert!(err.contains("runs.csv:3: t_s: 0 is not after 0"), "{err}");
 
     let mut nan = exp.clone();
     nan.runs[0].samples[0].pressure_kpa = f64::NAN;

@@ -35,10 +35,7 @@ pub use parametric::{
     SandParams, BALLOON_FINAL_DIAMETER_MM, BALLOON_FREE_PRESSURE_KPA, BALLOON_FREE_SD_KPA,
     BALLOON_TABLE, FRICTION_ANGLE_DEG, RISE_DONE_DIAMETER_MM,
 };
-pub use solver::{SolverSand, SolverSandError};
-
-/// Standard gravity (m/s²).
-pub const GRAVITY_M_S2: f64 = 9.80665;
+pub use solver::SolverSand;
 
 /// What the sand remembers within one expansion cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]

@@ -14,7 +14,8 @@
 
 use serde::Serialize;
 
-use super::{SandHistory, SandLaw, Unloading, GRAVITY_M_S2};
+use super::{SandHistory, SandLaw, Unloading};
+use constants::{GRAVITY_M_S2, SEAWATER_DENSITY_KG_M3};
 
 /// Sand and fluid properties and the law's coefficients.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -60,7 +61,7 @@ impl SandParams {
         let d0 = 18.7;
         Self {
             grain_density_kg_m3: 2920.0,
-            fluid_density_kg_m3: 1025.0,
+            fluid_density_kg_m3: SEAWATER_DENSITY_KG_M3,
             porosity: 0.40,
             at_rest_coefficient: 1.0 - sin_phi,
             limit_coefficient: 1.0 - sin_phi,
@@ -381,9 +382,9 @@ mod tests {
 
     #[test]
     fn buoyant_unit_weight_is_the_hand_value() {
-        // (2920 − 1025)·0.6·9.80665 N/m³ = 11150 N/m³ = 0.01115 kPa/mm.
+        // (2920 − 1025)·0.6·9.81 N/m³ = 11154 N/m³ = 0.01115 kPa/mm.
         let p = SandParams::paper_uncalibrated();
-        assert!((p.buoyant_unit_weight_kpa_per_mm() - 0.011_150_16).abs() < 1e-8);
+        assert!((p.buoyant_unit_weight_kpa_per_mm() - 0.011_153_97).abs() < 1e-8);
         assert!((p.at_rest_coefficient - 0.5).abs() < 1e-12);
         assert!((p.active_coefficient - 1.0 / 3.0).abs() < 1e-12);
     }

@@ -25,6 +25,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Context;
+use datafile::{comment_lines, DataError, Table};
 use serde::Serialize;
 
 use super::{ParametricSand, SandHistory, SandLaw, SandParams, Unloading};
@@ -42,20 +43,6 @@ pub const INITIAL_DIAMETER_KEY: &str = "initial_diameter_mm";
 
 /// The data columns, in the order `host-sim solver-sand` writes them.
 pub const COLUMNS: [&str; 4] = ["depth_mm", "diameter_mm", "p_e_kpa", "samples"];
-
-/// Bad solver data: names the file, the line (1-based) and the field.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{file}:{line}: {field}: {message}")]
-pub struct SolverSandError {
-    /// The file as given to the reader.
-    pub file: String,
-    /// 1-based line number.
-    pub line: u64,
-    /// Column or header key at fault.
-    pub field: String,
-    /// What is wrong.
-    pub message: String,
-}
 
 /// One stored depth: the binned solver samples and the coefficient read
 /// from them.
@@ -114,7 +101,7 @@ impl SolverSand {
     /// emulator's plant and the workbench's baseline are fitted to (see
     /// [`super::ParametricSand::fitted_to_solver`]), so they push back as
     /// the firmware table (made from the same file) expects.
-    pub fn committed() -> Result<Self, SolverSandError> {
+    pub fn committed() -> Result<Self, DataError> {
         let mut sand = Self::parse(include_str!("../../../data/sand/solver-pe.csv"), DATA_PATH)?;
         sand.source = DATA_PATH.to_string();
         Ok(sand)
@@ -138,21 +125,15 @@ impl SolverSand {
 
     /// Parses solver results `text`; `file` names it in errors and in the
     /// description.
-    pub fn parse(text: &str, file: &str) -> Result<Self, SolverSandError> {
-        let err = |line: u64, field: &str, message: String| SolverSandError {
-            file: file.to_string(),
-            line,
-            field: field.to_string(),
-            message,
+    pub fn parse(text: &str, file: &str) -> Result<Self, DataError> {
+        let err = |line: u64, key: &str, message: String| {
+            DataError::new(file, message).with_line(line).with_key(key)
         };
         // Settings: `# key = value` comment lines.
         let mut settings = Vec::new();
         let mut unit_weight = None;
         let mut initial_diameter = None;
-        for (k, line) in text.lines().enumerate() {
-            let Some(comment) = line.trim_start().strip_prefix('#') else {
-                continue;
-            };
+        for (line_no, comment) in comment_lines(text) {
             let Some((key, value)) = comment.split_once('=') else {
                 continue;
             };
@@ -163,8 +144,7 @@ impl SolverSand {
             if key.is_empty() || !key.chars().all(plain) {
                 continue;
             }
-            let positive = || -> Result<f64, SolverSandError> {
-                let line_no = k as u64 + 1;
+            let positive = || -> Result<f64, DataError> {
                 let v: f64 = value
                     .parse()
                     .map_err(|_| err(line_no, key, format!("`{value}` is not a number")))?;
@@ -188,37 +168,11 @@ impl SolverSand {
             }
         }
 
-        let mut reader = csv::ReaderBuilder::new()
-            .comment(Some(b'#'))
-            .trim(csv::Trim::All)
-            .from_reader(text.as_bytes());
-        // Lines from byte offsets: the csv reader does not count the
-        // comment lines it skips in its own line numbers.
-        let line_at = |pos: Option<&csv::Position>| {
-            pos.map_or(0, |p| {
-                let upto = text.as_bytes().get(..p.byte() as usize).unwrap_or_default();
-                upto.iter().filter(|&&b| b == b'\n').count() as u64 + 1
-            })
-        };
-        let csv_err = |e: csv::Error| err(line_at(e.position()), "record", e.to_string());
-        let headers = reader.headers().map_err(csv_err)?.clone();
-        // (Nor does it place the header record after them.)
-        let header_line = text
-            .lines()
-            .position(|l| !l.trim().is_empty() && !l.starts_with('#'))
-            .map_or(1, |k| k as u64 + 1);
+        let mut table = Table::parse_with_comments(file, text.as_bytes())?;
+        let header_line = table.header_line();
         let mut index = [0usize; 4];
         for (slot, name) in index.iter_mut().zip(COLUMNS) {
-            *slot = headers.iter().position(|h| h == name).ok_or_else(|| {
-                err(
-                    header_line,
-                    name,
-                    format!(
-                        "missing column (the header must name {})",
-                        COLUMNS.join(", ")
-                    ),
-                )
-            })?;
+            *slot = table.require(name)?;
         }
         let Some(unit_weight) = unit_weight else {
             return Err(err(
@@ -230,62 +184,38 @@ impl SolverSand {
 
         // Rows, grouped by depth (with the line of each group's first row).
         let mut groups: Vec<(u64, DepthCurve)> = Vec::new();
-        for record in reader.records() {
-            let record = record.map_err(csv_err)?;
-            let line = line_at(record.position());
-            let field = |i: usize| {
-                let name = COLUMNS[i];
-                let raw = record.get(index[i]).unwrap_or("");
-                (name, raw)
-            };
-            let number = |i: usize| -> Result<f64, SolverSandError> {
-                let (name, raw) = field(i);
-                let v: f64 = raw
-                    .parse()
-                    .map_err(|_| err(line, name, format!("`{raw}` is not a number")))?;
-                if !v.is_finite() {
-                    return Err(err(line, name, format!("{raw} is not finite")));
-                }
-                Ok(v)
-            };
-            let depth_mm = number(0)?;
-            let diameter_mm = number(1)?;
-            let p_e_kpa = number(2)?;
-            let (name, raw) = field(3);
+        for row in table.rows() {
+            let row = row?;
+            let depth_mm = row.number(index[0])?;
+            let diameter_mm = row.number(index[1])?;
+            let p_e_kpa = row.number(index[2])?;
+            let raw = row.get(index[3]);
             let samples: u64 = raw.parse().map_err(|_| {
-                err(
-                    line,
-                    name,
+                row.error(
+                    COLUMNS[3],
                     format!("`{raw}` is not a whole number of samples"),
                 )
             })?;
             if depth_mm <= 0.0 {
-                return Err(err(
-                    line,
+                return Err(row.error(
                     COLUMNS[0],
                     format!("depth {depth_mm} mm is not below the surface"),
                 ));
             }
             if diameter_mm <= 0.0 {
-                return Err(err(
-                    line,
+                return Err(row.error(
                     COLUMNS[1],
                     format!("diameter {diameter_mm} mm is not positive"),
                 ));
             }
             if p_e_kpa < 0.0 {
-                return Err(err(
-                    line,
+                return Err(row.error(
                     COLUMNS[2],
                     format!("negative pressure {p_e_kpa} kPa (sand cannot pull on the skin)"),
                 ));
             }
             if samples == 0 {
-                return Err(err(
-                    line,
-                    COLUMNS[3],
-                    "a bin with no samples (such bins are left out)".into(),
-                ));
+                return Err(row.error(COLUMNS[3], "a bin with no samples (such bins are left out)"));
             }
             match groups.last_mut() {
                 Some((_, curve)) if curve.depth_mm == depth_mm => {
@@ -295,8 +225,7 @@ impl SolverSand {
                         .copied()
                         .unwrap_or(f64::NEG_INFINITY);
                     if diameter_mm <= last {
-                        return Err(err(
-                            line,
+                        return Err(row.error(
                             COLUMNS[1],
                             format!("{diameter_mm} mm does not increase on the previous row's {last} mm at depth {depth_mm} mm"),
                         ));
@@ -308,15 +237,14 @@ impl SolverSand {
                 previous => {
                     if let Some((_, curve)) = previous {
                         if depth_mm < curve.depth_mm {
-                            return Err(err(
-                                line,
+                            return Err(row.error(
                                 COLUMNS[0],
                                 format!("depth {depth_mm} mm after {} mm: rows must come in increasing depth, each depth's rows together", curve.depth_mm),
                             ));
                         }
                     }
                     groups.push((
-                        line,
+                        row.line(),
                         DepthCurve {
                             depth_mm,
                             diameters_mm: vec![diameter_mm],

@@ -5,12 +5,13 @@
 
 use std::path::Path;
 
-use sand::solver::{SolverSandError, DATA_PATH, UNIT_WEIGHT_KEY};
+use datafile::DataError;
+use sand::solver::{DATA_PATH, UNIT_WEIGHT_KEY};
 use sand::{ParametricSand, SandHistory, SandLaw, SolverSand};
 
 /// A data file with γ' = 0.01 kPa/mm: line 1 the unit weight, line 2 the
 /// header, rows from line 3.
-fn parse(rows: &str) -> Result<SolverSand, SolverSandError> {
+fn parse(rows: &str) -> Result<SolverSand, DataError> {
     let text = format!("# {UNIT_WEIGHT_KEY} = 0.01\ndepth_mm,diameter_mm,p_e_kpa,samples\n{rows}");
     SolverSand::parse(&text, "hand.csv")
 }
@@ -18,8 +19,8 @@ fn parse(rows: &str) -> Result<SolverSand, SolverSandError> {
 fn assert_rejected(text: &str, line: u64, field: &str) {
     let e = SolverSand::parse(text, "bad.csv").unwrap_err();
     assert_eq!(
-        (e.file.as_str(), e.line, e.field.as_str()),
-        ("bad.csv", line, field),
+        (e.file.as_str(), e.line, e.key.as_deref()),
+        ("bad.csv", Some(line), Some(field)),
         "{e}"
     );
     let shown = e.to_string();

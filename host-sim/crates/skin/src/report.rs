@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::fit::{fit_all, LawFit, SCAN_MAX_STRETCH, SCAN_MIN_STRETCH};
 use super::uniaxial::{StressMeasure, UniaxialTest};
-use atomic_file::write_atomic;
+use datafile::write_atomic;
 
 /// What was read, as recorded in the JSON.
 #[derive(Clone, Debug, Serialize)]

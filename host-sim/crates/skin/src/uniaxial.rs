@@ -6,8 +6,8 @@
 
 use std::path::{Path, PathBuf};
 
+use datafile::{DataError, Table};
 use serde::Serialize;
-use thiserror::Error;
 
 /// Which stress a test file reported.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -27,62 +27,6 @@ impl StressMeasure {
             Self::Nominal => "nominal_stress_kpa",
         }
     }
-}
-
-/// A bad uniaxial file; every variant names the file, and the line and
-/// column where there is one.
-#[derive(Debug, Error)]
-pub enum UniaxialError {
-    /// The file could not be opened or read.
-    #[error("{file}: {source}")]
-    Io {
-        /// The file.
-        file: PathBuf,
-        /// What the system said.
-        source: std::io::Error,
-    },
-    /// The CSV itself is malformed (quoting, ragged rows, encoding).
-    #[error("{file}:{line}: {message}")]
-    Csv {
-        /// The file.
-        file: PathBuf,
-        /// 1-based line number.
-        line: u64,
-        /// What the CSV reader said.
-        message: String,
-    },
-    /// A required column is missing from the header.
-    #[error("{file}:1: missing column `{column}` (header: {header})")]
-    MissingColumn {
-        /// The file.
-        file: PathBuf,
-        /// The column that was expected.
-        column: &'static str,
-        /// The header that was found.
-        header: String,
-    },
-    /// A cell is not a number, not finite, or out of range.
-    #[error("{file}:{line}: column `{column}`: {message}")]
-    BadValue {
-        /// The file.
-        file: PathBuf,
-        /// 1-based line number.
-        line: u64,
-        /// The column.
-        column: &'static str,
-        /// What is wrong with the value.
-        message: String,
-    },
-    /// Fewer rows than any fit needs.
-    #[error("{file}: {rows} data rows; at least {needed} are needed")]
-    TooFewRows {
-        /// The file.
-        file: PathBuf,
-        /// Rows found.
-        rows: usize,
-        /// Rows needed.
-        needed: usize,
-    },
 }
 
 /// Fewest rows accepted: the largest law has three coefficients, and its
@@ -121,96 +65,60 @@ impl UniaxialTest {
     }
 
     /// Reads a test file.
-    pub fn read(path: &Path) -> Result<Self, UniaxialError> {
-        let file = std::fs::File::open(path).map_err(|source| UniaxialError::Io {
-            file: path.to_path_buf(),
-            source,
-        })?;
+    pub fn read(path: &Path) -> Result<Self, DataError> {
+        let file = std::fs::File::open(path)
+            .map_err(|e| DataError::new(path.display().to_string(), e.to_string()))?;
         Self::from_reader(path, file)
     }
 
     /// Reads a test from any reader; `source` names it in messages.
-    pub fn from_reader(source: &Path, reader: impl std::io::Read) -> Result<Self, UniaxialError> {
-        let file = || source.to_path_buf();
-        let csv_err = |e: csv::Error| UniaxialError::Csv {
-            file: file(),
-            line: e.position().map_or(1, |p| p.line()),
-            message: e.to_string(),
-        };
-        let mut rdr = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .from_reader(reader);
-        let header = rdr.headers().map_err(csv_err)?.clone();
-        let find = |name: &str| header.iter().position(|h| h == name);
-        let header_text = || header.iter().collect::<Vec<_>>().join(",");
-        let strain_col = find("strain").ok_or_else(|| UniaxialError::MissingColumn {
-            file: file(),
-            column: "strain",
-            header: header_text(),
-        })?;
+    pub fn from_reader(source: &Path, mut reader: impl std::io::Read) -> Result<Self, DataError> {
+        let name = source.display().to_string();
+        let mut bytes = Vec::new();
+        reader
+            .read_to_end(&mut bytes)
+            .map_err(|e| DataError::new(&name, e.to_string()))?;
+        let mut table = Table::parse(&name, &bytes)?;
+        let strain_col = table.require("strain")?;
         let mut warnings = Vec::new();
         let (measured, stress_col) = match (
-            find(StressMeasure::Nominal.column()),
-            find(StressMeasure::Cauchy.column()),
+            table.column(StressMeasure::Nominal.column()),
+            table.column(StressMeasure::Cauchy.column()),
         ) {
             (Some(n), Some(_)) => {
                 warnings.push(format!(
-                    "{}: both stress columns present; using `nominal_stress_kpa`, ignoring `cauchy_stress_kpa`",
-                    source.display()
+                    "{name}: both stress columns present; using `nominal_stress_kpa`, ignoring `cauchy_stress_kpa`"
                 ));
                 (StressMeasure::Nominal, n)
             }
             (Some(n), None) => (StressMeasure::Nominal, n),
             (None, Some(c)) => (StressMeasure::Cauchy, c),
             (None, None) => {
-                return Err(UniaxialError::MissingColumn {
-                    file: file(),
-                    column: "cauchy_stress_kpa` or `nominal_stress_kpa",
-                    header: header_text(),
-                })
+                return Err(table.header_error(format!(
+                    "missing column `cauchy_stress_kpa` or `nominal_stress_kpa` (header: {})",
+                    table.columns().join(", ")
+                )))
             }
         };
-        for (i, h) in header.iter().enumerate() {
+        for (i, h) in table.columns().iter().enumerate() {
             let known = i == strain_col || i == stress_col || h == StressMeasure::Cauchy.column();
             if !known {
-                warnings.push(format!(
-                    "{}: ignoring unknown column `{h}`",
-                    source.display()
-                ));
+                warnings.push(format!("{name}: ignoring unknown column `{h}`"));
             }
         }
 
         let mut strain = Vec::new();
         let mut nominal_stress_kpa = Vec::new();
-        for record in rdr.records() {
-            let record = record.map_err(csv_err)?;
-            let line = record.position().map_or(0, |p| p.line());
-            let cell = |col: usize, column: &'static str| -> Result<f64, UniaxialError> {
-                let bad = |message: String| UniaxialError::BadValue {
-                    file: file(),
-                    line,
-                    column,
-                    message,
-                };
-                let text = record.get(col).unwrap_or("");
-                let v: f64 = text
-                    .parse()
-                    .map_err(|_| bad(format!("`{text}` is not a number")))?;
-                if !v.is_finite() {
-                    return Err(bad(format!("`{text}` is not finite")));
-                }
-                Ok(v)
-            };
-            let e = cell(strain_col, "strain")?;
+        for row in table.rows() {
+            let row = row?;
+            let e = row.number(strain_col)?;
             if e <= -1.0 {
-                return Err(UniaxialError::BadValue {
-                    file: file(),
-                    line,
-                    column: "strain",
-                    message: format!("{e} would mean a stretch λ = 1 + ε ≤ 0"),
-                });
+                return Err(row.error_in(
+                    strain_col,
+                    format!("{e} would mean a stretch λ = 1 + ε ≤ 0"),
+                ));
             }
-            let s = cell(stress_col, measured.column())?;
+            let s = row.number(stress_col)?;
             strain.push(e);
             nominal_stress_kpa.push(match measured {
                 StressMeasure::Nominal => s,
@@ -219,11 +127,10 @@ impl UniaxialTest {
             });
         }
         if strain.len() < MIN_ROWS {
-            return Err(UniaxialError::TooFewRows {
-                file: file(),
-                rows: strain.len(),
-                needed: MIN_ROWS,
-            });
+            return Err(DataError::new(
+                name,
+                format!("{} data rows; at least {MIN_ROWS} are needed", strain.len()),
+            ));
         }
         Ok(Self {
             source: source.to_path_buf(),
@@ -260,7 +167,7 @@ impl UniaxialTest {
 mod tests {
     use super::*;
 
-    fn parse(text: &str) -> Result<UniaxialTest, UniaxialError> {
+    fn parse(text: &str) -> Result<UniaxialTest, DataError> {
         UniaxialTest::from_reader(Path::new("t.csv"), text.as_bytes())
     }
 
@@ -281,29 +188,58 @@ mod tests {
         assert!(t.warnings[0].contains("temp_c"));
     }
 
+    /// (file, line, column) of an error.
+    fn place(e: &DataError) -> (&str, Option<u64>, Option<&str>) {
+        (e.file.as_str(), e.line, e.key.as_deref())
+    }
+
     #[test]
     fn errors_name_file_line_and_column() {
         let e = parse("strain,nominal_stress_kpa\n0,0\n0.5,abc\n").unwrap_err();
         assert_eq!(
             e.to_string(),
-            "t.csv:3: column `nominal_stress_kpa`: `abc` is not a number"
+            "t.csv:3: nominal_stress_kpa: `abc` is not a number"
+        );
+        assert_eq!(place(&e), ("t.csv", Some(3), Some("nominal_stress_kpa")));
+        let e = parse("stress,nominal_stress_kpa\n0,0\n").unwrap_err();
+        assert_eq!(place(&e), ("t.csv", Some(1), Some("strain")));
+        assert_eq!(
+            e.to_string(),
+            "t.csv:1: strain: missing column (header: stress, nominal_stress_kpa)"
         );
         let e = parse("strain,stress\n0,0\n").unwrap_err();
+        assert_eq!(place(&e), ("t.csv", Some(1), None));
         assert!(
             e.to_string()
                 .starts_with("t.csv:1: missing column `cauchy_stress_kpa` or `nominal_stress_kpa`"),
             "{e}"
         );
         let e = parse("strain,nominal_stress_kpa\n0,0\n-1.5,2\n").unwrap_err();
-        assert!(e.to_string().starts_with("t.csv:3: column `strain`"), "{e}");
+        assert_eq!(place(&e), ("t.csv", Some(3), Some("strain")));
+        assert!(e.to_string().starts_with("t.csv:3: strain: "), "{e}");
         let e = parse("strain,nominal_stress_kpa\n0,0\n1,inf\n").unwrap_err();
-        assert!(e.to_string().contains("not finite"), "{e}");
+        assert_eq!(place(&e), ("t.csv", Some(3), Some("nominal_stress_kpa")));
+        assert!(e.to_string().contains("not a finite number"), "{e}");
         let e = parse("strain,nominal_stress_kpa\n0,0\n1,2\n").unwrap_err();
-        assert!(
-            matches!(e, UniaxialError::TooFewRows { rows: 2, .. }),
-            "{e}"
-        );
+        assert_eq!(place(&e), ("t.csv", None, None));
+        assert_eq!(e.message, "2 data rows; at least 4 are needed");
         let e = parse("strain,nominal_stress_kpa\n0,0\n1,2,3\n").unwrap_err();
-        assert!(e.to_string().starts_with("t.csv:3:"), "{e}");
+        assert_eq!(place(&e), ("t.csv", Some(3), None));
+        assert_eq!(e.to_string(), "t.csv:3: 3 fields, but the header has 2");
+    }
+
+    #[test]
+    fn spreadsheet_exports_read() {
+        let t =
+            parse("\u{feff}strain , nominal_stress_kpa\r\n0,0\r\n1, 1\r\n2,2\r\n3,3\r\n").unwrap();
+        assert_eq!(t.strain, [0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(t.nominal_stress_kpa, [0.0, 1.0, 2.0, 3.0]);
+        assert!(t.warnings.is_empty(), "{:?}", t.warnings);
+    }
+
+    #[test]
+    fn a_missing_file_is_named() {
+        let e = UniaxialTest::read(Path::new("/nonexistent/test.csv")).unwrap_err();
+        assert_eq!(place(&e), ("/nonexistent/test.csv", None, None));
     }
 }

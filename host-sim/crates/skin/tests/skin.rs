@@ -129,7 +129,7 @@ fn shipped_synthetic_data_is_the_documented_generator_output() {
     let path = host_sim_path(unicinctus::DATA_PATH);
     let fresh = unicinctus::CIRCUMFERENTIAL.csv_text();
     if std::env::var_os("UPDATE_SKIN_DATA").is_some() {
-        atomic_file::write_atomic(&path, fresh.as_bytes()).unwrap();
+        datafile::write_atomic(&path, fresh.as_bytes()).unwrap();
     }
     let shipped = std::fs::read_to_string(&path).unwrap();
     assert_eq!(shipped, fresh, "{} is stale", path.display());
@@ -226,8 +226,19 @@ fn fit_skin_writes_json_and_svg() {
     std::fs::write(&csv, "strain,cauchy_stress_kpa\n0,0\n1,x\n").unwrap();
     let err = fit_skin(&csv, &dir.path().join("bad")).unwrap_err();
     assert!(
-        format!("{err:#}").contains("spec.csv:3: column `cauchy_stress_kpa`"),
+        format!("{err:#}").contains("spec.csv:3: cauchy_stress_kpa: `x` is not a number"),
         "{err:#}"
+    );
+    let e = err
+        .downcast_ref::<datafile::DataError>()
+        .expect("a data file's error");
+    assert_eq!(
+        (e.file.as_str(), e.line, e.key.as_deref()),
+        (
+            csv.display().to_string().as_str(),
+            Some(3),
+            Some("cauchy_stress_kpa")
+        ),
     );
     assert!(!dir.path().join("bad").exists());
 }

@@ -379,7 +379,7 @@ pub fn regenerate_at(
             path.display()
         );
     }
-    atomic_file::write_atomic(&path, source.as_bytes())
+    datafile::write_atomic(&path, source.as_bytes())
         .with_context(|| format!("writing {}", path.display()))?;
     Ok((path, TablesOutcome::Written))
 }

@@ -70,8 +70,8 @@ fn a_solver_file_of_another_actuator_is_refused_and_a_bad_d0_named() {
     )
     .unwrap_err();
     assert_eq!(
-        (e.line, e.field.as_str()),
-        (2, "initial_diameter_mm"),
+        (e.file.as_str(), e.line, e.key.as_deref()),
+        ("s.csv", Some(2), Some("initial_diameter_mm")),
         "{e}"
     );
     // Without the key: the paper's actuator.

@@ -14,7 +14,7 @@ use super::diagnose::{diagnose, fit_effects, noise_floor, DiagnoseOptions, Diagn
 use super::model_file::{append_ledger, read_ledger, LedgerEntry, ModelFile};
 use super::plot::{chart_svg, Series};
 use super::residuals::{analyse, residual, ResidualReport};
-use atomic_file::write_atomic;
+use datafile::write_atomic;
 use model::effects::EffectInstance;
 use model::{Params, RigBasis};
 use rig::Experiment;

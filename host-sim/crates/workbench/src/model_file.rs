@@ -14,7 +14,7 @@ use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 
 use super::calibrate::Fit;
-use atomic_file::write_atomic;
+use datafile::write_atomic;
 use model::effects::{EffectInstance, EffectSpec};
 
 /// File name of the model inside the experiment folder.

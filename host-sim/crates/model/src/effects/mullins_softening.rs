@@ -70,7 +70,7 @@ mod tests {
             dt_s: 0.02,
             pump_flow_ml_s: 0.0,
             depth_mm: 0.0,
-            absolute_rest_kpa: 101.325,
+            absolute_rest_kpa: crate::ATMOSPHERE_KPA,
             pressure_source: PressureSource::LineSensor,
             bore_area_mm2: 670.0,
             initial_diameter_mm: 20.0,

@@ -59,14 +59,14 @@ mod tests {
             dt_s: 0.0,
             pump_flow_ml_s: 0.0,
             depth_mm: 0.0,
-            absolute_rest_kpa: 101.325,
+            absolute_rest_kpa: crate::ATMOSPHERE_KPA,
             pressure_source: PressureSource::LineSensor,
             bore_area_mm2: 670.0,
             initial_diameter_mm: 18.7,
         };
         let air = TrappedAir { gas_volume_ml: 2.0 };
         let mut st = [0.0; 2];
-        assert!((air.held_volume_ml(&mut st, &ctx, 101.325) - 1.0).abs() < 1e-12);
+        assert!((air.held_volume_ml(&mut st, &ctx, crate::ATMOSPHERE_KPA) - 1.0).abs() < 1e-12);
         assert_eq!(air.held_volume_ml(&mut st, &ctx, 0.0), 0.0);
         // Suction lets it grow: negative held volume.
         assert!(air.held_volume_ml(&mut st, &ctx, -10.0) < 0.0);
