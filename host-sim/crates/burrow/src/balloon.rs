@@ -234,9 +234,7 @@ fn row(ensemble: &Ensemble, spec: &ScenarioSpec) -> Row {
         metrics
             .iter()
             .find(|m| m.name == name)
-            .map_or((f64::NAN, f64::NAN), |m| {
-                super::ensemble::mean_sd(&m.values)
-            })
+            .map_or((f64::NAN, f64::NAN), |m| crate::stats::mean_sd(&m.values))
     };
     Row {
         depth_mm: spec.depth_m * 1e3,

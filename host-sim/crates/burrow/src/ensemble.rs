@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{ensure, Context, Result};
 
 use super::{output, simulate_with, FreeCurve, Options, Report, ScenarioSpec};
+use crate::stats::mean_sd;
 
 /// One reported quantity over the ensemble's runs.
 #[derive(Clone, Debug, PartialEq)]
@@ -17,19 +18,6 @@ pub struct Metric {
     pub name: &'static str,
     /// Its value in each run, in seed order.
     pub values: Vec<f64>,
-}
-
-/// Mean and sample standard deviation (n − 1) of `values`; the SD is 0
-/// for a single value, both NaN for none.
-pub fn mean_sd(values: &[f64]) -> (f64, f64) {
-    let n = values.len();
-    let m = values.iter().sum::<f64>() / n as f64;
-    let sd = match n {
-        0 => f64::NAN,
-        1 => 0.0,
-        _ => (values.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1) as f64).sqrt(),
-    };
-    (m, sd)
 }
 
 impl Metric {

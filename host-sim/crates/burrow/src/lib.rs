@@ -14,7 +14,6 @@
 //! `host-sim/crates/burrow/README.md`.
 
 pub mod balloon;
-pub mod bins;
 pub mod coupling;
 pub mod ensemble;
 pub mod free_skin;
@@ -23,6 +22,7 @@ pub mod run;
 pub mod scenario;
 pub mod settings;
 pub mod solver_sand;
+pub mod stats;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -10,10 +10,9 @@ use std::path::Path;
 use anyhow::{anyhow, Context, Result};
 use plotters::prelude::*;
 
-use super::ensemble::mean_sd;
 use super::Report;
-use crate::bins::bin_samples_indexed;
 use crate::coupling::Sample;
+use crate::stats::{bin_samples_indexed, mean_sd};
 use ::plot::plot_err;
 use datafile::write_atomic;
 use dem::Particles;

@@ -25,8 +25,8 @@ use serde::Serialize;
 use rig::Rig;
 use sand::solver::{SolverSand, COLUMNS, INITIAL_DIAMETER_KEY, UNIT_WEIGHT_KEY};
 
-pub use crate::bins::{bin_samples, bin_samples_indexed, Bin};
-use crate::ensemble::mean_sd;
+use crate::stats::mean_sd;
+pub use crate::stats::{bin_samples, bin_samples_indexed, Bin};
 use crate::{Ensemble, ScenarioSpec};
 
 /// Grain radius of the solver runs (mm): the coarse-grained sand of

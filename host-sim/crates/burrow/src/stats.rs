@@ -1,5 +1,6 @@
-//! Binning a run's (D, p_e) samples over the diameter: the solver sand's
-//! stored rows and the ensembles' mean curves both use it.
+//! Statistics over runs: binning a run's (D, p_e) samples over the
+//! diameter (the solver sand's stored rows, the ensembles' mean curves)
+//! and the mean ± SD over beds.
 
 use serde::Serialize;
 
@@ -66,4 +67,17 @@ pub fn bin_samples_indexed(
             )
         })
         .collect()
+}
+
+/// Mean and sample standard deviation (n − 1) of `values`; the SD is 0
+/// for a single value, both NaN for none.
+pub fn mean_sd(values: &[f64]) -> (f64, f64) {
+    let n = values.len();
+    let m = values.iter().sum::<f64>() / n as f64;
+    let sd = match n {
+        0 => f64::NAN,
+        1 => 0.0,
+        _ => (values.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1) as f64).sqrt(),
+    };
+    (m, sd)
 }
