@@ -388,8 +388,9 @@ impl ScenarioSpec {
             final_diameter_m * 1e3
         );
         let skin_coefficients = rig.skin.as_ref().map(|k| k.yeoh());
-        let (box_width_m, wall_friction) = match &rig.container {
-            Some(c) => (c.width_mm * 1e-3, sand.friction),
+        let (box_width_m, wall_friction) = match rig.container.as_ref().and_then(|c| c.width_mm) {
+            Some(width_mm) => (width_mm * 1e-3, sand.friction),
+            // No box, or a tank with no width given: a wide tank.
             None => (WIDE_TANK_DIAMETERS * final_diameter_m, 0.0),
         };
         let below_m = 0.5 * final_diameter_m + 7.5e-3;

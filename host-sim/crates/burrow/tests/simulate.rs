@@ -401,7 +401,7 @@ fn a_rig_that_cannot_be_simulated_is_refused_naming_the_file_and_key() {
     let e = msg(&floating, None);
     assert!(e.contains("lab/rig.toml") && e.contains("float"), "{e}");
     let mut narrow = paper_rig_without_skin();
-    narrow.container.as_mut().unwrap().width_mm = 26.0;
+    narrow.container.as_mut().unwrap().width_mm = Some(26.0);
     let e = msg(&narrow, None);
     assert!(e.contains("box width 26.0 mm"), "{e}");
 }
@@ -415,7 +415,7 @@ fn a_tiny_bed_of_another_rig_carries_its_own_buoyant_weight() {
     let sand = rig.sand.as_mut().unwrap();
     sand.grain_density_kg_m3 = 2650.0;
     rig.fluid.density_kg_m3 = 1000.0;
-    rig.container.as_mut().unwrap().width_mm = 50.0;
+    rig.container.as_mut().unwrap().width_mm = Some(50.0);
     let r = 2.5e-3;
     let base = ScenarioSpec {
         settle_s: 0.4,

@@ -100,8 +100,9 @@ pub struct Fluid {
 /// `[container]`: the box the sand is in; absent = a wide tank.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Container {
-    /// Inner width (mm).
-    pub width_mm: f64,
+    /// Inner width (mm); `None`: a wide tank, its walls far from the zone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_mm: Option<f64>,
     /// Inner length (mm).
     pub length_mm: f64,
 }
@@ -210,7 +211,7 @@ const SCHEMA: &[SectionSchema] = &[
     SectionSchema {
         name: "container",
         required: false,
-        keys: &[("width_mm", true), ("length_mm", true)],
+        keys: &[("width_mm", false), ("length_mm", true)],
     },
     SectionSchema {
         name: "pump",
@@ -410,7 +411,7 @@ impl Rig {
                 water_above_sand_mm: 180.0,
             },
             container: Some(Container {
-                width_mm: 40.0,
+                width_mm: Some(40.0),
                 length_mm: 200.0,
             }),
             pump: Pump {
@@ -476,7 +477,7 @@ impl Rig {
             container: match doc.section("container")? {
                 None => None,
                 Some(_) => Some(Container {
-                    width_mm: doc.number("container", "width_mm", Positive)?,
+                    width_mm: doc.optional_number("container", "width_mm", Positive)?,
                     length_mm: doc.number("container", "length_mm", Positive)?,
                 }),
             },
@@ -544,6 +545,69 @@ pub const REQUIRED_COLUMNS: [&str; 5] = ["run", "t_s", "depth_mm", "volume_ml", 
 
 /// The optional column of the format.
 pub const DIAMETER_COLUMN: &str = "diameter_mm";
+
+/// Where a numeric column's values must lie to be taken as a reading:
+/// outside it a value is refused as absurd (a unit slip, a logger's
+/// overflow, a corrupt cell), naming its line and column.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlausibleRange {
+    /// The column.
+    pub column: &'static str,
+    /// Smallest plausible value, in the column's unit.
+    pub min: f64,
+    /// Largest plausible value, in the column's unit.
+    pub max: f64,
+    /// Why, in words.
+    pub why: &'static str,
+}
+
+/// The stated plausibility range of every numeric column.
+pub const PLAUSIBLE_RANGES: [PlausibleRange; 5] = [
+    PlausibleRange {
+        column: "t_s",
+        min: 0.0,
+        max: 1.0e6,
+        why: "time since the start of a run, at most 11.6 days",
+    },
+    PlausibleRange {
+        column: "depth_mm",
+        min: 0.0,
+        max: 1.0e4,
+        why: "sand cover above the axis, at most 10 m",
+    },
+    PlausibleRange {
+        column: "volume_ml",
+        min: -1.0e4,
+        max: 1.0e4,
+        why: "net volume pumped, within ±10 L",
+    },
+    PlausibleRange {
+        column: "pressure_kpa",
+        min: -constants::ATMOSPHERE_KPA,
+        max: 1.0e4,
+        why: "a gauge reading, above absolute vacuum and below 10 MPa",
+    },
+    PlausibleRange {
+        column: DIAMETER_COLUMN,
+        min: 0.0,
+        max: 1.0e4,
+        why: "the zone's outer diameter, at most 10 m",
+    },
+];
+
+/// Refuses `value` of `column` outside its [`PLAUSIBLE_RANGES`] entry.
+fn plausible(row: &datafile::Row<'_>, column: &str, value: f64) -> Result<(), DataError> {
+    match PLAUSIBLE_RANGES.iter().find(|r| r.column == column) {
+        Some(r) if !(r.min..=r.max).contains(&value) => Err(row.error(
+            column,
+            format!(
+                "{value} is outside the plausible range {} to {} ({})",
+                r.min, r.max, r.why
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
 
 /// One row of a run.
 #[derive(Clone, Debug, PartialEq)]
@@ -713,7 +777,12 @@ impl RunCollector {
                 if d <= 0.0 {
                     return Err(row.error(DIAMETER_COLUMN, format!("{d} is not > 0")));
                 }
+                plausible(&row, DIAMETER_COLUMN, d)?;
             }
+            plausible(&row, "t_s", t_s)?;
+            plausible(&row, "depth_mm", depth_mm)?;
+            plausible(&row, "volume_ml", sample.volume_ml)?;
+            plausible(&row, "pressure_kpa", sample.pressure_kpa)?;
             let same_run = current.is_some_and(|i| self.runs.get(i).is_some_and(|r| r.id == id));
             let index = if same_run {
                 current.unwrap_or_default()

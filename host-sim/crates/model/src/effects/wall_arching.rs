@@ -61,8 +61,9 @@ impl Effect for WallArching {
         &SPEC
     }
     fn effective_depth_mm(&self, rig: &Rig, depth_mm: f64) -> f64 {
-        match &rig.container {
-            Some(c) => WallArching::effective_depth_mm(self, c.width_mm, depth_mm),
+        match rig.container.as_ref().and_then(|c| c.width_mm) {
+            Some(width_mm) => WallArching::effective_depth_mm(self, width_mm, depth_mm),
+            // A wide tank: no wall to arch onto.
             None => depth_mm,
         }
     }
