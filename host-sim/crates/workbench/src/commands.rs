@@ -410,13 +410,18 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
     s += "candidates (ranked by ΔBIC against the baseline):\n";
     for c in &d.candidates {
         s += &format!(
-            "  {:<22} rmse {:.4}  held-out {}  ΔBIC {:>10.1}  excess explained {:>5.0} %\n",
+            "  {:<22} rmse {:.4}  held-out {}  ΔBIC {:>10.1}  excess explained {:>5.0} %{}\n",
             c.effect,
             c.rmse_kpa,
             c.heldout_rmse_kpa
                 .map_or("   -  ".to_owned(), |h| format!("{h:.4}")),
             c.score,
-            100.0 * c.excess_explained
+            100.0 * c.excess_explained,
+            if c.at_bound.is_empty() {
+                String::new()
+            } else {
+                format!("  [{} at its bound: not accepted]", c.at_bound.join(", "))
+            }
         );
     }
     for (name, why) in &d.not_applicable {

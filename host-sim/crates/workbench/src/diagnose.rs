@@ -74,6 +74,10 @@ pub struct Candidate {
     pub excess_explained: f64,
     /// Fitted parameters (the effect's and the baseline's).
     pub params: Vec<FittedParam>,
+    /// The effect's own parameters that ended on a bound of their range:
+    /// the data push it past what the effect can be, so it is not
+    /// accepted however much it pays.
+    pub at_bound: Vec<String>,
 }
 
 /// The fit of a model structure, summarized.
@@ -297,6 +301,13 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
                     })
                     .min_by(|a, b| a.ssr.total_cmp(&b.ssr))?;
                 let explained = (current.rmse_kpa.powi(2) - fit.rmse_kpa.powi(2)) / excess;
+                let own = format!("{}.", spec.name);
+                let at_bound = fit
+                    .params
+                    .iter()
+                    .filter(|p| p.at_bound && p.name.starts_with(&own))
+                    .map(|p| p.name.clone())
+                    .collect();
                 let cand = Candidate {
                     effect: spec.name.to_owned(),
                     rmse_kpa: fit.rmse_kpa,
@@ -305,6 +316,7 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
                     score: fit.bic() - current_bic,
                     excess_explained: explained,
                     params: fit.params.clone(),
+                    at_bound,
                 };
                 Some((fit, cand))
             })
@@ -317,7 +329,8 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
             let h = cand.heldout_rmse_kpa?;
             let pays = cand.score <= opts.max_delta_bic
                 && h <= current_heldout * (1.0 - opts.min_heldout_gain)
-                && cand.excess_explained >= opts.min_excess_explained;
+                && cand.excess_explained >= opts.min_excess_explained
+                && cand.at_bound.is_empty();
             pays.then(|| (fit.clone(), h))
         });
         rounds.push(fits.iter().map(|f| f.1.clone()).collect());

@@ -292,3 +292,30 @@ fn the_loop_add_an_effect_and_watch_the_error_fall() {
     // The folder still reads as an experiment (no stray CSV written).
     assert_eq!(Experiment::read(dir.path()).unwrap(), exp);
 }
+
+#[test]
+fn an_effect_fitted_to_its_bound_is_reported_and_not_accepted() {
+    // A lag at the very end of the library's range (50 ms): the fit runs
+    // into the bound, where the data may want more than the effect can
+    // be. Such a fit is reported as at its bound and not accepted.
+    let truth = typical("sensor_lag").unwrap();
+    let mut synth = case(vec![truth], DT_S, 1);
+    synth.effects[0].set("lag_s", 0.05).unwrap();
+    let d = run(&synth);
+    let lag = d
+        .candidates
+        .iter()
+        .find(|c| c.effect == "sensor_lag")
+        .expect("sensor_lag tried");
+    assert_eq!(lag.at_bound, ["sensor_lag.lag_s"], "{lag:?}");
+    assert!(
+        !d.selected.contains(&"sensor_lag".to_owned()),
+        "{:?}",
+        d.selected
+    );
+    let text = workbench::commands::diagnosis_text(&d);
+    assert!(
+        text.contains("[sensor_lag.lag_s at its bound: not accepted]"),
+        "{text}"
+    );
+}
