@@ -648,6 +648,19 @@ pub struct Experiment {
     /// What reading found odd but accepted (unknown keys, columns…). Not
     /// data: ignored by `==`.
     pub warnings: Vec<String>,
+    /// Where each run's rows were read, one per run in [`Experiment::runs`]
+    /// order: empty for an experiment built in code. Not data: ignored by
+    /// `==`.
+    pub sources: Vec<RunSource>,
+}
+
+/// The file and lines a run was read from.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RunSource {
+    /// File name inside the folder.
+    pub file: String,
+    /// 1-based line of each sample, in [`Run::samples`] order.
+    pub lines: Vec<u64>,
 }
 
 impl PartialEq for Experiment {
@@ -663,6 +676,8 @@ struct RunOrigin {
     file: String,
     first_line: u64,
     last_line: u64,
+    /// Every sample's line.
+    lines: Vec<u64>,
 }
 
 /// Collects runs across files, enforcing contiguity and uniqueness.
@@ -818,6 +833,7 @@ impl RunCollector {
             }
             run.samples.push(sample);
             origin.last_line = line;
+            origin.lines.push(line);
         }
         if rows == 0 {
             self.warnings.push(format!("{file}: no rows"));
@@ -859,6 +875,7 @@ impl RunCollector {
             file: file.to_owned(),
             first_line: line,
             last_line: line,
+            lines: Vec::new(),
         });
         let index = self.runs.len() - 1;
         self.index.insert(id.to_owned(), index);
@@ -874,6 +891,7 @@ impl Experiment {
             runs,
             extra_columns: Vec::new(),
             warnings: Vec::new(),
+            sources: Vec::new(),
         }
     }
 
@@ -918,11 +936,20 @@ impl Experiment {
                 .with_key("sand"));
             }
         }
+        let sources = collector
+            .origins
+            .into_iter()
+            .map(|o| RunSource {
+                file: o.file,
+                lines: o.lines,
+            })
+            .collect();
         Ok(Experiment {
             rig,
             runs: collector.runs,
             extra_columns: collector.extra_columns,
             warnings,
+            sources,
         })
     }
 

@@ -211,6 +211,7 @@ fn residuals(
         .iter()
         .zip(&data.measured)
         .enumerate()
+        .filter(|(i, _)| !data.skip[*i])
         .filter(|(i, _)| mask.is_none_or(|m| m.get(*i).copied().unwrap_or(false)))
         .map(|(_, (p, m))| p - m)
         .collect();

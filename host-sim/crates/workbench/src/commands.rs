@@ -407,6 +407,15 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
         "baseline: RMSE {:.4} kPa, held-out {:.4} kPa; noise floor {:.4} kPa ({})\n",
         d.baseline.rmse_kpa, d.baseline.heldout_rmse_kpa, d.noise_floor_kpa, d.noise_floor_source
     );
+    if !d.spikes.is_empty() {
+        s += &format!(
+            "spikes: {} isolated reading(s) left out of every fit and score:\n",
+            d.spikes.len()
+        );
+        for spike in &d.spikes {
+            s += &format!("  {spike}\n");
+        }
+    }
     s += "candidates (ranked by ΔBIC against the baseline):\n";
     for c in &d.candidates {
         s += &format!(

@@ -23,6 +23,9 @@ pub struct Dataset {
     pub measured: Vec<f64>,
     /// Run index of every sample.
     pub run_of: Vec<usize>,
+    /// Samples left out of every fit and score (isolated spikes,
+    /// [`crate::spikes`]); their readings stay in the runs.
+    pub skip: Vec<bool>,
 }
 
 impl Dataset {
@@ -42,11 +45,13 @@ impl Dataset {
             run_of.extend(std::iter::repeat_n(i, r.samples.len()));
             offsets.push(measured.len());
         }
+        let skip = vec![false; measured.len()];
         Dataset {
             runs,
             offsets,
             measured,
             run_of,
+            skip,
         }
     }
 
@@ -58,24 +63,60 @@ impl Dataset {
             return self.clone();
         }
         let k = n.div_ceil(max_samples);
+        let keep = |r: &Run, i: usize| i.is_multiple_of(k) || i + 1 == r.samples.len();
         let runs = self
             .runs
             .iter()
-            .map(|r| {
-                let last = r.samples.len() - 1;
-                Run {
-                    samples: r
-                        .samples
-                        .iter()
-                        .enumerate()
-                        .filter(|(i, _)| i % k == 0 || *i == last)
-                        .map(|(_, s)| s.clone())
-                        .collect(),
-                    ..r.clone()
-                }
+            .map(|r| Run {
+                samples: r
+                    .samples
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| keep(r, *i))
+                    .map(|(_, s)| s.clone())
+                    .collect(),
+                ..r.clone()
             })
             .collect();
-        Self::from_runs(runs)
+        let mut thin = Self::from_runs(runs);
+        thin.skip = self
+            .runs
+            .iter()
+            .zip(self.offsets.windows(2))
+            .flat_map(|(r, w)| {
+                (0..r.samples.len())
+                    .filter(move |&i| keep(r, i))
+                    .map(move |i| self.skip[w[0] + i])
+            })
+            .collect();
+        thin
+    }
+
+    /// The samples not skipped, as their own dataset (for statistics over
+    /// the runs: a skipped sample leaves its run), with each kept sample's
+    /// index here.
+    pub fn kept(&self) -> (Dataset, Vec<usize>) {
+        let runs = self
+            .runs
+            .iter()
+            .zip(self.offsets.windows(2))
+            .map(|(r, w)| Run {
+                samples: r
+                    .samples
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| !self.skip[w[0] + i])
+                    .map(|(_, s)| s.clone())
+                    .collect(),
+                ..r.clone()
+            })
+            .collect();
+        (Self::from_runs(runs), self.used().collect())
+    }
+
+    /// The samples a fit or a score uses, as indices.
+    pub fn used(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.len()).filter(|&i| !self.skip[i])
     }
 
     /// Number of samples.

@@ -17,8 +17,9 @@ use serde::Serialize;
 use super::calibrate::{calibrate, Fit, FitOptions, FitSpace, FittedParam};
 use super::dataset::{Dataset, MAX_FIT_SAMPLES};
 use super::residuals::{analyse, noise_floor_estimate, residual, ResidualReport};
+use super::spikes::{self, Spike};
 use model::effects::{EffectInstance, EffectSpec, REGISTRY};
-use model::{Params, RigBasis};
+use model::{Params, RigBasis, RigModel};
 use rig::Experiment;
 
 /// Selection thresholds and effort.
@@ -134,6 +135,9 @@ pub struct Diagnosis {
     /// A structured residual no library effect explains, described; null
     /// when the remaining residual looks like noise.
     pub unexplained: Option<String>,
+    /// Readings left out of every fit and score as isolated spikes
+    /// ([`crate::spikes`]), with their file and line.
+    pub spikes: Vec<Spike>,
     /// The final residual, analysed.
     pub residual: ResidualReport,
     /// Samples in the folder / used for fitting.
@@ -175,7 +179,7 @@ fn heldout(full: &Fit, data: &Dataset, masks: &[Vec<bool>], opts: &DiagnoseOptio
             let pred = data.predict(&model);
             let (mut s, mut n) = (0.0, 0);
             for (i, (p, m)) in pred.iter().zip(&data.measured).enumerate() {
-                if !mask[i] {
+                if !mask[i] && !data.skip[i] {
                     s += (p - m) * (p - m);
                     n += 1;
                 }
@@ -250,13 +254,58 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
     let basis = RigBasis::new(&experiment.rig)?;
     let all = Dataset::new(experiment);
     anyhow::ensure!(!all.is_empty(), "the experiment has no samples");
+    // Spikes are first looked for against the baseline, then confirmed
+    // against the model the diagnosis ends with: a sharp feature of a
+    // missing effect (friction reversing with the flow) stands out of the
+    // baseline's residual but not out of the right model's, and stays in.
+    let base = fit_effects(
+        &basis,
+        &all.thinned(MAX_FIT_SAMPLES),
+        Params::default(),
+        Vec::new(),
+        opts.fit,
+    )?;
+    let (r, _) = residual(&all, &base.model()?);
+    let mut skipped = spikes::find(experiment, &all, &r);
+    let mut tries = 0;
+    loop {
+        let (diagnosis, model) = diagnose_skipping(experiment, &basis, &all, &skipped, opts)?;
+        if skipped.is_empty() || tries == 1 {
+            return Ok(diagnosis);
+        }
+        let (r, _) = residual(&all, &model);
+        let confirmed = spikes::find(experiment, &all, &r);
+        let at = |s: &[(usize, Spike)]| s.iter().map(|(k, _)| *k).collect::<Vec<_>>();
+        if at(&confirmed) == at(&skipped) {
+            return Ok(diagnosis);
+        }
+        skipped = confirmed;
+        tries += 1;
+    }
+}
+
+/// [`diagnose`] with the samples `skipped` (spikes) left out of every fit
+/// and score; with the final model.
+fn diagnose_skipping(
+    experiment: &Experiment,
+    basis: &std::sync::Arc<RigBasis>,
+    all: &Dataset,
+    skipped: &[(usize, Spike)],
+    opts: &DiagnoseOptions,
+) -> Result<(Diagnosis, RigModel)> {
+    let mut all = all.clone();
+    for (k, _) in skipped {
+        all.skip[*k] = true;
+    }
     let data = all.thinned(MAX_FIT_SAMPLES);
     let masks = folds(&data, opts.max_folds);
-
-    let base_fit = fit_effects(&basis, &data, Params::default(), Vec::new(), opts.fit)?;
+    let base_fit = fit_effects(basis, &data, Params::default(), Vec::new(), opts.fit)?;
+    let spikes: Vec<Spike> = skipped.iter().map(|(_, s)| s.clone()).collect();
+    let (kept, index) = all.kept();
     let base_model = base_fit.model()?;
     let (base_r, _) = residual(&all, &base_model);
-    let (noise, noise_source) = noise_floor(experiment, &all, &base_r);
+    let base_r: Vec<f64> = index.iter().map(|&i| base_r[i]).collect();
+    let (noise, noise_source) = noise_floor(experiment, &kept, &base_r);
     let base_heldout = heldout(&base_fit, &data, &masks, opts);
     let baseline = score(&base_fit, base_heldout);
 
@@ -297,7 +346,7 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
                     .filter_map(|values| {
                         let mut effects = current.space.effects.clone();
                         effects.push(EffectInstance { spec, values });
-                        fit_effects(&basis, &data, current.space.baseline, effects, opts.fit).ok()
+                        fit_effects(basis, &data, current.space.baseline, effects, opts.fit).ok()
                     })
                     .min_by(|a, b| a.ssr.total_cmp(&b.ssr))?;
                 let explained = (current.rmse_kpa.powi(2) - fit.rmse_kpa.powi(2)) / excess;
@@ -352,7 +401,9 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
 
     let final_model = current.model()?;
     let (r, preds) = residual(&all, &final_model);
-    let report = analyse(&all, &r, &preds);
+    let r: Vec<f64> = index.iter().map(|&i| r[i]).collect();
+    let preds: Vec<_> = index.iter().map(|&i| preds[i]).collect();
+    let report = analyse(&kept, &r, &preds);
     let final_rmse = report.overall.rmse_kpa;
     let unexplained = unexplained(&report, noise);
     let selected_details = selected
@@ -373,7 +424,7 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
         })
         .collect();
     let mut rounds = rounds.into_iter();
-    Ok(Diagnosis {
+    let diagnosis = Diagnosis {
         baseline,
         candidates: rounds.next().unwrap_or_default(),
         later_rounds: rounds.collect(),
@@ -386,9 +437,11 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
         noise_floor_kpa: noise,
         noise_floor_source: noise_source,
         unexplained,
+        spikes,
         residual: report,
         samples: [all.len(), data.len()],
-    })
+    };
+    Ok((diagnosis, final_model))
 }
 
 /// A description of the remaining residual when it is structured (well

@@ -5,6 +5,7 @@
 //! - [`dataset`]: the folder's runs as the fitter sees them;
 //! - [`calibrate`]: Levenberg–Marquardt with bounds and standard errors;
 //! - [`residuals`]: residual statistics, structure tests, sentences;
+//! - [`spikes`]: isolated glitches found, named and left out of the fits;
 //! - [`diagnose`]: effect ranking and greedy selection;
 //! - [`model_file`]: `model.toml` (effects in use) and `ledger.json`;
 //! - [`plot`]: SVG charts;
@@ -18,4 +19,5 @@ pub mod diagnose;
 pub mod model_file;
 pub mod plot;
 pub mod residuals;
+pub mod spikes;
 pub mod synth;

@@ -15,7 +15,10 @@ const DT_S: f64 = 0.04;
 
 fn run(synth: &Synth) -> Diagnosis {
     let exp = synth.generate().unwrap();
-    diagnose(&exp, &DiagnoseOptions::default()).unwrap()
+    let d = diagnose(&exp, &DiagnoseOptions::default()).unwrap();
+    // Synthetic folders hold no glitch: nothing may be left out as one.
+    assert!(d.spikes.is_empty(), "false spikes: {:?}", d.spikes);
+    d
 }
 
 fn primary(d: &Diagnosis, effect: &str, param: &str) -> f64 {
@@ -318,4 +321,49 @@ fn an_effect_fitted_to_its_bound_is_reported_and_not_accepted() {
         text.contains("[sensor_lag.lag_s at its bound: not accepted]"),
         "{text}"
     );
+}
+
+#[test]
+fn isolated_spikes_are_named_by_line_and_left_out_of_the_fit() {
+    let synth = case(vec![typical("line_loss").unwrap()], DT_S, 2);
+    let clean = synth.generate().unwrap();
+    let want = diagnose(&clean, &DiagnoseOptions::default()).unwrap();
+    // Three glitches of 5 to 8 kPa, as written to and read from a folder.
+    let mut glitched = clean.clone();
+    let hits = [(0, 40, 8.0), (1, 75, -5.0), (2, 10, 6.0)];
+    for &(run, k, kpa) in &hits {
+        glitched.runs[run].samples[k].pressure_kpa += kpa;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    glitched.write(dir.path()).unwrap();
+    let read = Experiment::read(dir.path()).unwrap();
+    let d = diagnose(&read, &DiagnoseOptions::default()).unwrap();
+
+    let mut got: Vec<(String, u64)> = d
+        .spikes
+        .iter()
+        .map(|s| (s.run.clone(), s.line.expect("read from a file")))
+        .collect();
+    got.sort();
+    let mut expected: Vec<(String, u64)> = hits
+        .iter()
+        .map(|&(run, k, _)| {
+            let line = read.sources[run].lines[k];
+            (read.runs[run].id.clone(), line)
+        })
+        .collect();
+    expected.sort();
+    assert_eq!(got, expected, "{:?}", d.spikes);
+    // The same diagnosis as without the glitches, to within the noise.
+    assert_eq!(d.selected, want.selected);
+    assert!(
+        (d.final_rmse_kpa - want.final_rmse_kpa).abs() < 0.1 * want.final_rmse_kpa,
+        "{} vs {}",
+        d.final_rmse_kpa,
+        want.final_rmse_kpa
+    );
+    let text = workbench::commands::diagnosis_text(&d);
+    assert!(text.contains("spikes: 3 isolated reading(s)"), "{text}");
+    // Without glitches, nothing is called a spike.
+    assert!(want.spikes.is_empty(), "{:?}", want.spikes);
 }
