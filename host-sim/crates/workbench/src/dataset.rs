@@ -12,6 +12,11 @@ use rig::{Experiment, Run};
 /// on every sample.
 pub const MAX_FIT_SAMPLES: usize = 4000;
 
+/// Widest spacing of the samples a fit steps through (s): the sensor's
+/// lag (about 9 ms) and the line's transients are resolved at 20 ms, and
+/// the model integrates from one kept sample to the next.
+pub const MAX_THINNED_INTERVAL_S: f64 = 0.02;
+
 /// Runs plus their readings, flattened.
 #[derive(Clone, Debug)]
 pub struct Dataset {
@@ -55,41 +60,108 @@ impl Dataset {
         }
     }
 
-    /// A copy with at most about `max_samples` samples: each run keeps
-    /// every k-th sample (and its last).
+    /// A copy with at most about `max_samples` samples for fitting: each
+    /// run keeps every k-th sample (and its last). The stride is capped so
+    /// that the kept samples stay [`MAX_THINNED_INTERVAL_S`] apart at most
+    /// (the model steps from sample to sample, and coarser steps misstate
+    /// its dynamics); when that cap binds, a subset of whole runs is kept
+    /// instead, taken in turn from each depth and spread over each depth's
+    /// runs, at least one per depth.
     pub fn thinned(&self, max_samples: usize) -> Dataset {
         let n = self.len();
         if n <= max_samples || max_samples == 0 {
             return self.clone();
         }
-        let k = n.div_ceil(max_samples);
+        let wanted = n.div_ceil(max_samples);
+        let k = wanted.min(self.max_stride());
+        let chosen: Vec<usize> = if k == wanted {
+            (0..self.runs.len()).collect()
+        } else {
+            self.spread_runs(max_samples, k)
+        };
         let keep = |r: &Run, i: usize| i.is_multiple_of(k) || i + 1 == r.samples.len();
-        let runs = self
-            .runs
+        let runs = chosen
             .iter()
-            .map(|r| Run {
-                samples: r
-                    .samples
-                    .iter()
-                    .enumerate()
-                    .filter(|(i, _)| keep(r, *i))
-                    .map(|(_, s)| s.clone())
-                    .collect(),
-                ..r.clone()
+            .map(|&j| {
+                let r = &self.runs[j];
+                Run {
+                    samples: r
+                        .samples
+                        .iter()
+                        .enumerate()
+                        .filter(|(i, _)| keep(r, *i))
+                        .map(|(_, s)| s.clone())
+                        .collect(),
+                    ..r.clone()
+                }
             })
             .collect();
         let mut thin = Self::from_runs(runs);
-        thin.skip = self
-            .runs
+        thin.skip = chosen
             .iter()
-            .zip(self.offsets.windows(2))
-            .flat_map(|(r, w)| {
+            .flat_map(|&j| {
+                let (r, a) = (&self.runs[j], self.offsets[j]);
                 (0..r.samples.len())
                     .filter(move |&i| keep(r, i))
-                    .map(move |i| self.skip[w[0] + i])
+                    .map(move |i| self.skip[a + i])
             })
             .collect();
         thin
+    }
+
+    /// The largest stride that keeps thinned samples at most
+    /// [`MAX_THINNED_INTERVAL_S`] apart, at the folder's median sampling
+    /// interval (at least 1).
+    fn max_stride(&self) -> usize {
+        let mut dts: Vec<f64> = self
+            .runs
+            .iter()
+            .flat_map(|r| r.samples.windows(2).map(|w| w[1].t_s - w[0].t_s))
+            .collect();
+        if dts.is_empty() {
+            return 1;
+        }
+        let mid = dts.len() / 2;
+        let (_, dt, _) = dts.select_nth_unstable_by(mid, f64::total_cmp);
+        let stride = (MAX_THINNED_INTERVAL_S / *dt).floor();
+        if stride.is_finite() && stride >= 1.0 {
+            stride as usize
+        } else {
+            1
+        }
+    }
+
+    /// Whole runs, thinned by `stride`, within `budget` samples: taken in
+    /// turn from each depth (in the order depths first appear), each
+    /// depth's runs spread over its list; at least one per depth. Indices
+    /// in the folder's order.
+    fn spread_runs(&self, budget: usize, stride: usize) -> Vec<usize> {
+        let mut groups: Vec<(u64, Vec<usize>)> = Vec::new();
+        for (j, r) in self.runs.iter().enumerate() {
+            let key = r.depth_mm.to_bits();
+            match groups.iter_mut().find(|g| g.0 == key) {
+                Some(g) => g.1.push(j),
+                None => groups.push((key, vec![j])),
+            }
+        }
+        let orders: Vec<Vec<usize>> = groups.iter().map(|g| spread_order(&g.1)).collect();
+        let size = |j: usize| self.runs[j].samples.len().div_ceil(stride) + 1;
+        let (mut chosen, mut total) = (Vec::new(), 0usize);
+        let rounds = orders.iter().map(Vec::len).max().unwrap_or(0);
+        'rounds: for round in 0..rounds {
+            for order in &orders {
+                let Some(&j) = order.get(round) else {
+                    continue;
+                };
+                if round > 0 && total + size(j) > budget {
+                    break 'rounds;
+                }
+                total += size(j);
+                chosen.push(j);
+            }
+        }
+        chosen.sort_unstable();
+        chosen
     }
 
     /// The samples not skipped, as their own dataset (for statistics over
@@ -134,4 +206,25 @@ impl Dataset {
         let parts: Vec<Vec<f64>> = self.runs.par_iter().map(|r| model.predict(r)).collect();
         parts.concat()
     }
+}
+
+/// `items` reordered so that every prefix is spread over the list: the
+/// first, then each time the one farthest from those already taken.
+fn spread_order(items: &[usize]) -> Vec<usize> {
+    let n = items.len();
+    let mut taken: Vec<usize> = Vec::with_capacity(n);
+    let mut used = vec![false; n];
+    for _ in 0..n {
+        let next = (0..n)
+            .filter(|&i| !used[i])
+            .max_by_key(|&i| {
+                let gap = taken.iter().map(|&t| t.abs_diff(i)).min().unwrap_or(n);
+                // Farthest first; the earliest of equals.
+                (gap, std::cmp::Reverse(i))
+            })
+            .unwrap_or(0);
+        used[next] = true;
+        taken.push(next);
+    }
+    taken.into_iter().map(|i| items[i]).collect()
 }

@@ -367,3 +367,38 @@ fn isolated_spikes_are_named_by_line_and_left_out_of_the_fit() {
     // Without glitches, nothing is called a spike.
     assert!(want.spikes.is_empty(), "{:?}", want.spikes);
 }
+
+#[test]
+fn many_repeated_runs_get_the_diagnosis_of_one() {
+    // The three standard runs repeated 40 times as separate runs (51,000
+    // samples): the fit keeps whole runs at the original's resolution
+    // instead of every 13th sample of each, and names the same effects.
+    let synth = case(
+        vec![typical("line_loss").unwrap(), typical("leak").unwrap()],
+        DT_S,
+        3,
+    );
+    let one = synth.generate().unwrap();
+    let want = run(&synth);
+    let mut many = one.clone();
+    many.runs = (0..40)
+        .flat_map(|k| {
+            one.runs.iter().map(move |r| rig::Run {
+                id: format!("{}_r{k}", r.id),
+                ..r.clone()
+            })
+        })
+        .collect();
+    let d = diagnose(&many, &DiagnoseOptions::default()).unwrap();
+    assert_eq!(d.selected, want.selected);
+    assert_eq!(d.samples[0], 40 * want.samples[0]);
+    assert!(d.samples[1] <= 4000 + 3 * 400, "{:?}", d.samples);
+    for (effect, param) in [
+        ("line_loss", "resistance_kpa_s_per_ml"),
+        ("leak", "ml_per_s_per_kpa"),
+    ] {
+        let (a, b) = (primary(&d, effect, param), primary(&want, effect, param));
+        assert!((a - b).abs() <= 0.05 * b.abs(), "{effect}: {a} vs {b}");
+    }
+    assert!(d.final_rmse_kpa <= 1.1 * want.final_rmse_kpa);
+}
