@@ -32,6 +32,11 @@ fn main() -> Result<()> {
             if *name == "piston_friction" {
                 synth.rig.measurement.pressure_source = PressureSource::PistonForce;
             }
+            if *name == "skin_shape" {
+                // The skin's form is a candidate only where rig.toml does
+                // not give the skin's law.
+                synth.rig.skin = None;
+            }
             if name.starts_with("outside") {
                 synth.outside = Some(Outside::TemperatureDrift {
                     amplitude_kpa: 0.25,

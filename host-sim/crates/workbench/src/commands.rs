@@ -441,7 +441,10 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
     } else {
         s += &format!("selected: {}\n", d.selected.join(", "));
         for e in &d.selected_details {
-            s += &format!("  {}: {}\n", e.effect, e.signature);
+            match &e.baseline_form {
+                Some(words) => s += &format!("  {} (the baseline's form): {words}\n", e.effect),
+                None => s += &format!("  {}: {}\n", e.effect, e.signature),
+            }
         }
     }
     s += &format!("final model parameters:\n{}", params_text(&d.params));

@@ -18,7 +18,7 @@ use super::calibrate::{calibrate, Fit, FitOptions, FitSpace, FittedParam};
 use super::dataset::{Dataset, MAX_FIT_SAMPLES};
 use super::residuals::{analyse, noise_floor_estimate, residual, ResidualReport};
 use super::spikes::{self, Spike};
-use model::effects::{EffectInstance, EffectSpec, REGISTRY};
+use model::effects::{EffectInstance, EffectKind, EffectSpec, REGISTRY};
 use model::{Params, RigBasis, RigModel};
 use rig::Experiment;
 
@@ -105,6 +105,9 @@ pub struct SelectedEffect {
     pub params: Vec<FittedParam>,
     /// The residual signature that gave it away, in plain words.
     pub signature: String,
+    /// For a form of the baseline ([`EffectKind::BaselineForm`]), how the
+    /// model's form was wrong, from the fitted values; null for an effect.
+    pub baseline_form: Option<String>,
 }
 
 /// The diagnosis (`host-sim diagnose --json` prints this).
@@ -411,15 +414,23 @@ fn diagnose_skipping(
         .filter_map(|name| {
             let spec = EffectSpec::by_name(name).ok()?;
             let prefix = format!("{name}.");
+            let params: Vec<FittedParam> = current
+                .params
+                .iter()
+                .filter(|p| p.name.starts_with(&prefix))
+                .cloned()
+                .collect();
+            let baseline_form = match spec.kind {
+                EffectKind::BaselineForm { words } => {
+                    Some(words(&params.iter().map(|p| p.value).collect::<Vec<_>>()))
+                }
+                EffectKind::Physical => None,
+            };
             Some(SelectedEffect {
                 effect: name.clone(),
-                params: current
-                    .params
-                    .iter()
-                    .filter(|p| p.name.starts_with(&prefix))
-                    .cloned()
-                    .collect(),
+                params,
                 signature: spec.signature.to_owned(),
+                baseline_form,
             })
         })
         .collect();

@@ -195,6 +195,8 @@ pub fn typical(name: &str) -> Result<EffectInstance> {
         "mullins_softening" => &[("fraction", 0.4)],
         "wall_arching" => &[("mu_k", 0.25)],
         "sensor_lag" => &[("lag_s", 0.03)],
+        "sand_depth_power" => &[("exponent", 0.7)],
+        "skin_shape" => &[("stretch_power", 1.0)],
         // Unknown names fail in `new`; other effects start at defaults.
         _ => &[],
     };

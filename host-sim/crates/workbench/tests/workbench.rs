@@ -59,6 +59,10 @@ fn hidden_fit(name: &str, seed: u64) -> (f64, f64) {
     if name == "piston_friction" {
         synth.rig.measurement.pressure_source = PressureSource::PistonForce;
     }
+    if name == "skin_shape" {
+        // A candidate only where rig.toml does not give the skin's law.
+        synth.rig.skin = None;
+    }
     let d = run(&synth);
     assert_eq!(d.candidates[0].effect, name, "ranking: {:?}", names(&d));
     assert_eq!(
@@ -401,4 +405,23 @@ fn many_repeated_runs_get_the_diagnosis_of_one() {
         assert!((a - b).abs() <= 0.05 * b.abs(), "{effect}: {a} vs {b}");
     }
     assert!(d.final_rmse_kpa <= 1.1 * want.final_rmse_kpa);
+}
+
+#[test]
+fn a_sand_whose_push_is_not_proportional_to_depth_is_named_in_words() {
+    hidden("sand_depth_power", 7);
+    let d = run(&case(vec![typical("sand_depth_power").unwrap()], DT_S, 7));
+    let text = workbench::commands::diagnosis_text(&d);
+    assert!(
+        text.contains("sand_depth_power (the baseline's form): the sand's push grows as depth^0.70, less than in proportion to depth"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_skin_of_another_shape_is_named_where_the_rig_gives_no_skin() {
+    hidden("skin_shape", 7);
+    // With the skin's law given, its shape is not a candidate.
+    let d = run(&case(Vec::new(), DT_S, 7));
+    assert!(d.not_applicable.iter().any(|(n, _)| n == "skin_shape"));
 }

@@ -2,7 +2,7 @@
 //! gauge pressure (laminar leak path): dV_lost/dt = k·p. The lost volume
 //! accumulates over the run (implicit Euler in p).
 
-use super::{value, Effect, EffectSpec, EffectState, StepContext};
+use super::{value, Effect, EffectKind, EffectSpec, EffectState, StepContext};
 use crate::params::ParamSpec;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
@@ -20,6 +20,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "Water leaks out in proportion to the gauge pressure (a laminar leak path); the lost volume accumulates over the run.",
     signature: "the measured pressure decays during holds while the model's stays flat, and the deficit grows from cycle to cycle (pressure below the model's, even negative, by the end of each shrink)",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(Leak { ml_per_s_per_kpa: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
 };

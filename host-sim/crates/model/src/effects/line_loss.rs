@@ -2,7 +2,7 @@
 //! laminar (Poiseuille) flow the drop is linear in the flow, so a sensor on
 //! the line (or the piston) reads p + R·Q while water moves, Q > 0 pushing.
 
-use super::{value, Effect, EffectSpec, StepContext};
+use super::{value, Effect, EffectKind, EffectSpec, StepContext};
 use crate::params::ParamSpec;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
@@ -20,6 +20,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "Laminar flow loss in the line between pump and actuator: the reading is the internal pressure plus R times the pump flow.",
     signature: "a residual proportional to the flow rate: positive while expanding, negative while shrinking, zero during holds, twice as large at twice the flow",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(LineLoss { resistance_kpa_s_per_ml: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
 };

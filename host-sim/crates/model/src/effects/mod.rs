@@ -31,9 +31,11 @@ pub mod leak;
 pub mod line_loss;
 pub mod mullins_softening;
 pub mod piston_friction;
+pub mod sand_depth_power;
 pub mod sensor_gain;
 pub mod sensor_lag;
 pub mod sensor_offset;
+pub mod skin_shape;
 pub mod skin_viscoelasticity;
 pub mod trapped_air;
 pub mod wall_arching;
@@ -42,7 +44,7 @@ pub mod wall_arching;
 /// within a hook (volume, depth, skin: mullins before viscoelasticity;
 /// sensor: physical terms, then gain, then offset). A new effect is one
 /// file and one row here.
-pub static REGISTRY: [&EffectSpec; 10] = [
+pub static REGISTRY: [&EffectSpec; 12] = [
     &leak::SPEC,
     &trapped_air::SPEC,
     &wall_arching::SPEC,
@@ -56,6 +58,9 @@ pub static REGISTRY: [&EffectSpec; 10] = [
     // cases pick effects by index); it acts only through the held volume,
     // a sum, so its place in the order does not matter.
     &sensor_lag::SPEC,
+    // Forms of the baseline, competing with the effects on the same terms.
+    &sand_depth_power::SPEC,
+    &skin_shape::SPEC,
 ];
 
 /// Per-run memory of one effect (meaning is the effect's own).
@@ -148,12 +153,37 @@ pub struct EffectSpec {
     pub signature: &'static str,
     /// Its parameters; the first is the primary one.
     pub params: &'static [ParamSpec],
+    /// A physical effect, or another form of a part of the baseline.
+    #[serde(skip)]
+    pub kind: EffectKind,
     /// Builds the effect from values in [`EffectSpec::params`] order.
     #[serde(skip)]
     pub build: fn(&[f64]) -> Box<dyn Effect>,
     /// Why it cannot act in `rig` (`None`: it can).
     #[serde(skip)]
     pub not_applicable: fn(&Rig) -> Option<&'static str>,
+}
+
+/// What a registry row stands for.
+#[derive(Clone, Copy, Debug)]
+pub enum EffectKind {
+    /// Something the rig does that the baseline leaves out.
+    Physical,
+    /// Another form of a part of the baseline whose shape is assumed (the
+    /// sand's depth dependence, the skin law's shape): it competes with
+    /// the effects on the same terms, and when selected says in words how
+    /// the baseline's form was wrong.
+    BaselineForm {
+        /// That sentence, from the fitted values (in `params` order).
+        words: fn(&[f64]) -> String,
+    },
+}
+
+impl EffectKind {
+    /// Whether it is a form of the baseline.
+    pub fn is_baseline_form(&self) -> bool {
+        matches!(self, EffectKind::BaselineForm { .. })
+    }
 }
 
 impl fmt::Debug for EffectSpec {
@@ -338,6 +368,8 @@ mod tests {
             ("mullins_softening", "fraction"),
             ("wall_arching", "mu_k"),
             ("sensor_lag", "lag_s"),
+            ("sand_depth_power", "exponent"),
+            ("skin_shape", "stretch_power"),
         ];
         for (name, primary) in want {
             assert_eq!(EffectSpec::by_name(name).unwrap().params[0].name, primary);
@@ -359,7 +391,7 @@ mod tests {
                 .iter()
                 .enumerate()
                 .map(|(i, p)| match (spec.name, i) {
-                    ("sensor_gain", 0) => 1.0,
+                    ("sensor_gain" | "sand_depth_power", 0) => 1.0,
                     (_, 0) => 0.0,
                     _ => p.default,
                 })

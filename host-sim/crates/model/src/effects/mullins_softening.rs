@@ -4,7 +4,7 @@
 //! multiplied by η = 1 − r·(1 − x), x = (D − D0)/(D_max − D0) ∈ [0, 1];
 //! on new ground (D ≥ D_max) the skin is virgin (η = 1).
 
-use super::{value, Effect, EffectSpec, EffectState, StepContext};
+use super::{value, Effect, EffectKind, EffectSpec, EffectState, StepContext};
 use crate::params::ParamSpec;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
@@ -22,6 +22,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "Stress softening of the skin below the largest stretch reached so far (Mullins effect): reloading and unloading follow a softer curve than first loading.",
     signature: "the model over-predicts pressure whenever the actuator is below its largest diameter so far (shrinking, and re-expanding in later cycles) but fits the first expansion; independent of flow rate",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(MullinsSoftening { fraction: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
 };

@@ -4,7 +4,7 @@
 //! F/A·sign(Q): more force to push, less to pull. A line sensor does not
 //! see it.
 
-use super::{smooth_sign, value, Effect, EffectSpec, StepContext};
+use super::{smooth_sign, value, Effect, EffectKind, EffectSpec, StepContext};
 use crate::params::ParamSpec;
 use rig::PressureSource;
 
@@ -23,6 +23,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "Coulomb friction of the syringe's piston seal, seen when pressure is piston force over bore area: the reading is p + F/A·sign(flow).",
     signature: "a step in the residual that follows the sign of the flow, the same size at every flow rate: positive while expanding, negative while shrinking, near zero during holds",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(PistonFriction { friction_n: value(v, &PARAMS, 0) }),
     not_applicable: |rig| match rig.measurement.pressure_source {
         PressureSource::PistonForce => None,

@@ -2,7 +2,7 @@
 //! (a wrong calibration factor): reading = gain·p. Identifiable against
 //! the skin only when the skin is known (`[skin]` in rig.toml).
 
-use super::{value, Effect, EffectSpec};
+use super::{value, Effect, EffectKind, EffectSpec};
 use crate::params::ParamSpec;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
@@ -20,6 +20,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "The pressure reading is the true gauge pressure times a gain different from 1 (a wrong calibration factor).",
     signature: "a residual proportional to the pressure itself: zero at rest, largest at the highest pressures, same sign in every phase",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(SensorGain { gain: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
 };

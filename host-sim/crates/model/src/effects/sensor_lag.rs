@@ -30,7 +30,7 @@
 //! effects up to their bound) found over-limit times beyond its bound with
 //! lags of 61–100 ms, none in 5,000 cases at 31–50 ms.
 
-use super::{value, Effect, EffectSpec, EffectState, StepContext};
+use super::{value, Effect, EffectKind, EffectSpec, EffectState, StepContext};
 use crate::params::ParamSpec;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
@@ -48,6 +48,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "The reading lags the line pressure by the sensor's conversion, sampling and read-out time: it is the pressure at the pump volume δ earlier, V − Q·δ.",
     signature: "a residual against the flow and proportional to the local slope dp/dV: the reading below the model while expanding, above it while shrinking, largest where the curve is steepest (the sand's unloading branch), zero during holds, twice as large at twice the flow",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(SensorLag { lag_s: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
 };

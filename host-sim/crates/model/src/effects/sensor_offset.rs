@@ -2,7 +2,7 @@
 //! at another level or temperature, a drifted transducer):
 //! reading = p + offset.
 
-use super::{value, Effect, EffectSpec};
+use super::{value, Effect, EffectKind, EffectSpec};
 use crate::params::ParamSpec;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
@@ -20,6 +20,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "The pressure reading carries a constant offset: the zero was taken elsewhere or has drifted.",
     signature: "a constant shift of the residual in every phase, at rest as well as under load",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(SensorOffset { offset_kpa: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
 };

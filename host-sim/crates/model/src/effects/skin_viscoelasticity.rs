@@ -5,7 +5,7 @@
 //! Exact update for p_el linear within a step:
 //! q ← q·e^(−Δt/τ) + g·Δp_el·(τ/Δt)(1 − e^(−Δt/τ)).
 
-use super::{value, Effect, EffectSpec, EffectState, StepContext};
+use super::{value, Effect, EffectKind, EffectSpec, EffectState, StepContext};
 use crate::params::ParamSpec;
 
 const PARAMS: [ParamSpec; 2] = [
@@ -33,6 +33,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "Viscoelastic skin, one Prony term: an overstress proportional to the recent rate of skin loading that relaxes with time constant tau.",
     signature: "the measured pressure overshoots the model while expanding and relaxes back toward it during holds with a time constant; undershoots while shrinking; grows with flow rate but less than proportionally",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(SkinViscoelasticity {
         fraction: value(v, &PARAMS, 0),
         tau_s: value(v, &PARAMS, 1),

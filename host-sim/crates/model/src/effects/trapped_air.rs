@@ -4,7 +4,7 @@
 //! V0·p/(P0 + p) of the pumped water fills the bubble's room instead of
 //! the actuator.
 
-use super::{value, Effect, EffectSpec, EffectState, StepContext};
+use super::{value, Effect, EffectKind, EffectSpec, EffectState, StepContext};
 use crate::params::ParamSpec;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
@@ -22,6 +22,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "An air bubble compressed isothermally (Boyle, absolute pressure = atmosphere + water column + gauge) takes part of the pumped volume.",
     signature: "the model over-predicts pressure more and more as pressure rises (the rig is softer than the model), most at the deepest runs and the top of each expansion; the same at every flow rate",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(TrappedAir { gas_volume_ml: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
 };

@@ -5,7 +5,7 @@
 //! the depth h_eff = h·(1 − e^(−x))/x, x = 2μk·h/B. Without a
 //! `[container]` in rig.toml (a wide tank) the effect does not apply.
 
-use super::{value, Effect, EffectSpec};
+use super::{value, Effect, EffectKind, EffectSpec};
 use crate::params::ParamSpec;
 use rig::Rig;
 
@@ -24,10 +24,11 @@ pub static SPEC: EffectSpec = EffectSpec {
     description: "Janssen arching: the container walls carry part of the sand's weight, so the vertical stress saturates with depth (container width from rig.toml).",
     signature: "the model over-predicts the sand's share of the pressure more and more with depth (less than proportional to depth), nothing in free water; independent of flow rate",
     params: &PARAMS,
+    kind: EffectKind::Physical,
     build: |v| Box::new(WallArching { mu_k: value(v, &PARAMS, 0) }),
     not_applicable: |rig| {
-        if rig.container.is_none() {
-            Some("rig.toml has no [container]: a wide tank has no wall arching")
+        if rig.container.as_ref().and_then(|c| c.width_mm).is_none() {
+            Some("rig.toml gives no [container] width_mm: a wide tank has no wall arching")
         } else if rig.sand.is_none() {
             Some("rig.toml has no [sand]")
         } else {
