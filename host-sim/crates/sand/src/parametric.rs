@@ -159,6 +159,19 @@ impl ParametricSand {
             / p.characteristic_diameter_increase_mm
     }
 
+    /// [`SandLaw::external_pressure_kpa`] with another unloading rule
+    /// (a model trying another form of the unloading branch).
+    pub fn external_pressure_unloading_kpa(
+        &self,
+        history: &mut SandHistory,
+        diameter_mm: f64,
+        depth_mm: f64,
+        unloading: Unloading,
+    ) -> f64 {
+        let k = unloading.coefficient(history, diameter_mm, |d| self.loading_coefficient(d));
+        k * self.params.vertical_effective_stress_kpa(depth_mm)
+    }
+
     /// Its unloading rule: slope [`Self::unloading_slope_per_mm`], floor Ka.
     pub fn unloading(&self) -> Unloading {
         Unloading {
@@ -182,10 +195,7 @@ impl SandLaw for ParametricSand {
         diameter_mm: f64,
         depth_mm: f64,
     ) -> f64 {
-        let k = self
-            .unloading()
-            .coefficient(history, diameter_mm, |d| self.loading_coefficient(d));
-        k * self.params.vertical_effective_stress_kpa(depth_mm)
+        self.external_pressure_unloading_kpa(history, diameter_mm, depth_mm, self.unloading())
     }
 
     fn describe(&self) -> String {

@@ -197,6 +197,7 @@ pub fn typical(name: &str) -> Result<EffectInstance> {
         "sensor_lag" => &[("lag_s", 0.03)],
         "sand_depth_power" => &[("exponent", 0.7)],
         "skin_shape" => &[("stretch_power", 1.0)],
+        "sand_unloading" => &[("slope_factor", 0.3)],
         // Unknown names fail in `new`; other effects start at defaults.
         _ => &[],
     };

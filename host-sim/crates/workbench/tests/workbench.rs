@@ -425,3 +425,16 @@ fn a_skin_of_another_shape_is_named_where_the_rig_gives_no_skin() {
     let d = run(&case(Vec::new(), DT_S, 7));
     assert!(d.not_applicable.iter().any(|(n, _)| n == "skin_shape"));
 }
+
+#[test]
+fn a_sand_that_unloads_more_softly_is_named_in_words() {
+    hidden("sand_unloading", 7);
+    let d = run(&case(vec![typical("sand_unloading").unwrap()], DT_S, 7));
+    let text = workbench::commands::diagnosis_text(&d);
+    assert!(
+        text.contains(
+            "sand_unloading (the baseline's form): the sand unloads more softly than the model"
+        ),
+        "{text}"
+    );
+}

@@ -26,12 +26,14 @@ use serde::Serialize;
 
 use crate::params::ParamSpec;
 use rig::{PressureSource, Rig};
+use sand::Unloading;
 
 pub mod leak;
 pub mod line_loss;
 pub mod mullins_softening;
 pub mod piston_friction;
 pub mod sand_depth_power;
+pub mod sand_unloading;
 pub mod sensor_gain;
 pub mod sensor_lag;
 pub mod sensor_offset;
@@ -44,7 +46,7 @@ pub mod wall_arching;
 /// within a hook (volume, depth, skin: mullins before viscoelasticity;
 /// sensor: physical terms, then gain, then offset). A new effect is one
 /// file and one row here.
-pub static REGISTRY: [&EffectSpec; 12] = [
+pub static REGISTRY: [&EffectSpec; 13] = [
     &leak::SPEC,
     &trapped_air::SPEC,
     &wall_arching::SPEC,
@@ -61,6 +63,7 @@ pub static REGISTRY: [&EffectSpec; 12] = [
     // Forms of the baseline, competing with the effects on the same terms.
     &sand_depth_power::SPEC,
     &skin_shape::SPEC,
+    &sand_unloading::SPEC,
 ];
 
 /// Per-run memory of one effect (meaning is the effect's own).
@@ -118,6 +121,12 @@ pub trait Effect: Send + Sync + fmt::Debug {
     fn effective_depth_mm(&self, rig: &Rig, depth_mm: f64) -> f64 {
         let _ = rig;
         depth_mm
+    }
+
+    /// The sand's unloading rule, given the rule so far (the sand law's,
+    /// or an earlier effect's).
+    fn unloading(&self, unloading: Unloading) -> Unloading {
+        unloading
     }
 
     /// The skin's pressure (kPa) at outer diameter `diameter_mm`, given the
@@ -370,6 +379,7 @@ mod tests {
             ("sensor_lag", "lag_s"),
             ("sand_depth_power", "exponent"),
             ("skin_shape", "stretch_power"),
+            ("sand_unloading", "slope_factor"),
         ];
         for (name, primary) in want {
             assert_eq!(EffectSpec::by_name(name).unwrap().params[0].name, primary);
@@ -391,7 +401,7 @@ mod tests {
                 .iter()
                 .enumerate()
                 .map(|(i, p)| match (spec.name, i) {
-                    ("sensor_gain" | "sand_depth_power", 0) => 1.0,
+                    ("sensor_gain" | "sand_depth_power" | "sand_unloading", 0) => 1.0,
                     (_, 0) => 0.0,
                     _ => p.default,
                 })
