@@ -14,6 +14,7 @@ use super::diagnose::{diagnose, fit_effects, noise_floor, DiagnoseOptions, Diagn
 use super::model_file::{append_ledger, read_ledger, LedgerEntry, ModelFile};
 use super::plot::{chart_svg, Series};
 use super::residuals::{analyse, residual, ResidualReport};
+use super::spikes::{self, Spike};
 use datafile::write_atomic;
 use model::effects::EffectInstance;
 use model::{Params, RigBasis};
@@ -35,6 +36,8 @@ pub struct Comparison {
     pub noise_floor_kpa: f64,
     /// Where the noise floor came from.
     pub noise_floor_source: String,
+    /// Readings left out of the fit as isolated spikes, with their place.
+    pub spikes: Vec<Spike>,
     /// Files written.
     pub files: Vec<PathBuf>,
 }
@@ -43,19 +46,36 @@ fn read(dir: &Path) -> Result<Experiment> {
     Experiment::read(dir)
 }
 
-fn calibrated(exp: &Experiment, effects: Vec<EffectInstance>) -> Result<(Fit, Dataset)> {
+/// The model with `effects` fitted to `exp`; isolated spikes against it
+/// ([`crate::spikes`]) are left out and the model refitted without them.
+/// Returns the fit, every sample (spikes marked skipped) and the spikes.
+fn calibrated(
+    exp: &Experiment,
+    effects: Vec<EffectInstance>,
+) -> Result<(Fit, Dataset, Vec<Spike>)> {
     let basis = RigBasis::new(&exp.rig)?;
-    let all = Dataset::new(exp);
+    let mut all = Dataset::new(exp);
     anyhow::ensure!(!all.is_empty(), "the experiment has no samples");
-    let data = all.thinned(MAX_FIT_SAMPLES);
-    let fit = fit_effects(
-        &basis,
-        &data,
-        Params::default(),
-        effects,
-        FitOptions::default(),
-    )?;
-    Ok((fit, all))
+    let fit_on = |data: &Dataset| {
+        fit_effects(
+            &basis,
+            &data.thinned(MAX_FIT_SAMPLES),
+            Params::default(),
+            effects.clone(),
+            FitOptions::default(),
+        )
+    };
+    let fit = fit_on(&all)?;
+    let (r, _) = residual(&all, &fit.model()?);
+    let found = spikes::find(exp, &all, &r);
+    if found.is_empty() {
+        return Ok((fit, all, Vec::new()));
+    }
+    for (k, _) in &found {
+        all.skip[*k] = true;
+    }
+    let fit = fit_on(&all)?;
+    Ok((fit, all, found.into_iter().map(|(_, s)| s).collect()))
 }
 
 fn file_safe(id: &str) -> String {
@@ -80,11 +100,14 @@ pub fn compare(dir: &Path) -> Result<Comparison> {
         Some(m) => m.instances()?,
         None => Vec::new(),
     };
-    let (fit, all) = calibrated(&exp, effects)?;
+    let (fit, all, spikes) = calibrated(&exp, effects)?;
     let model = fit.model()?;
     let (r, preds) = residual(&all, &model);
-    let report = analyse(&all, &r, &preds);
-    let (noise, source) = noise_floor(&exp, &all, &r);
+    let (kept, index) = all.kept();
+    let kept_r: Vec<f64> = index.iter().map(|&i| r[i]).collect();
+    let kept_preds: Vec<_> = index.iter().map(|&i| preds[i]).collect();
+    let report = analyse(&kept, &kept_r, &kept_preds);
+    let (noise, source) = noise_floor(&exp, &kept, &kept_r);
     let out = dir.join(OUTPUT_DIR);
     let mut files = Vec::new();
     for (i, run) in all.runs.iter().enumerate() {
@@ -179,6 +202,7 @@ pub fn compare(dir: &Path) -> Result<Comparison> {
         residual: report,
         noise_floor_kpa: noise,
         noise_floor_source: source,
+        spikes,
         files: files.clone(),
     };
     let path = out.join("compare.json");
@@ -218,10 +242,12 @@ fn refit_and_record(
     effects: Vec<EffectInstance>,
     version: u32,
 ) -> Result<DiagnoseOutcome> {
-    let (fit, all) = calibrated(exp, effects)?;
+    let (fit, all, _) = calibrated(exp, effects)?;
     let (r, _) = residual(&all, &fit.model()?);
+    let (kept, index) = all.kept();
+    let r: Vec<f64> = index.iter().map(|&i| r[i]).collect();
     let rmse = (r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt();
-    let (noise, _) = noise_floor(exp, &all, &r);
+    let (noise, _) = noise_floor(exp, &kept, &r);
     let model = ModelFile::of_fit(&fit, version);
     model.write(dir)?;
     let ledger = append_ledger(
@@ -394,6 +420,9 @@ impl Comparison {
             self.noise_floor_source,
             residual_text(&self.residual)
         );
+        for spike in &self.spikes {
+            s += &format!("spike left out of the fit: {spike}\n");
+        }
         for f in &self.files {
             s += &format!("wrote {}\n", f.display());
         }

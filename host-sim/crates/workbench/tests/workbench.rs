@@ -368,6 +368,13 @@ fn isolated_spikes_are_named_by_line_and_left_out_of_the_fit() {
     );
     let text = workbench::commands::diagnosis_text(&d);
     assert!(text.contains("spikes: 3 isolated reading(s)"), "{text}");
+    // `compare` leaves the same readings out of its calibration.
+    let cmp = workbench::commands::compare(dir.path()).unwrap();
+    let mut lines: Vec<u64> = cmp.spikes.iter().filter_map(|s| s.line).collect();
+    lines.sort_unstable();
+    let mut want_lines: Vec<u64> = expected.iter().map(|e| e.1).collect();
+    want_lines.sort_unstable();
+    assert_eq!(lines, want_lines, "{:?}", cmp.spikes);
     // Without glitches, nothing is called a spike.
     assert!(want.spikes.is_empty(), "{:?}", want.spikes);
 }
