@@ -14,9 +14,12 @@ use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64Mcg;
 
-/// Gauge zero's absolute pressure at the actuator (kPa): atmosphere plus
-/// 150 mm of water above the sand.
-const ABSOLUTE_REST_KPA: f64 = 101.3 + 1.0 * 9.8 * 0.15;
+/// Absolute pressure (kPa) at gauge zero for a run at `depth_mm`:
+/// atmosphere plus the water above the sand (150 mm) and the sand's pore
+/// water down to the actuator.
+fn absolute_rest_kpa(depth_mm: f64) -> f64 {
+    101.3 + 1000.0 * 9.8 * (150.0 + depth_mm) * 1e-6
+}
 
 /// The hidden effects this truth knows.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -226,7 +229,8 @@ impl Truth {
                     let mut peak_try = peak;
                     let solve = |p: f64, peak_try: &mut (f64, f64)| {
                         let held = air.map_or(0.0, |v0| {
-                            v0 - v0 * ABSOLUTE_REST_KPA / (ABSOLUTE_REST_KPA + p)
+                            let p0 = absolute_rest_kpa(*depth);
+                            v0 - v0 * p0 / (p0 + p)
                         });
                         let d = self.diameter_mm(v - lost - held);
                         *peak_try = peak;
