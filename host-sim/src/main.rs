@@ -109,9 +109,7 @@ fn tables(settings: tables::TablesSettings) -> Result<()> {
 
 fn fit_skin(file: &std::path::Path, out: &std::path::Path) -> Result<()> {
     let done = skin::report::fit_skin(file, out)?;
-    for w in &done.report.input.warnings {
-        eprintln!("warning: {w}");
-    }
+    warn(&done.report.input.warnings);
     print!("{}", done.report.table());
     println!(
         "wrote {} and {}",

@@ -311,7 +311,7 @@ pub fn generate(settings: &TablesSettings) -> Result<Generated> {
         .out
         .clone()
         .unwrap_or_else(|| settings.repo.join(GENERATED_PATH));
-    let (path, outcome, warnings) = match &settings.rig {
+    let (model, spec, command, warnings): (Box<dyn PressureModel>, _, _, _) = match &settings.rig {
         Some((rig_path, sand_path)) => {
             let (rig, file, warnings) = Rig::read_setup(rig_path)?;
             let sand = sand::SolverSand::load(sand_path)?;
@@ -321,18 +321,16 @@ pub fn generate(settings: &TablesSettings) -> Result<Generated> {
                 rig_path.display(),
                 sand_path.display()
             );
-            let spec = TableSpec::for_rig(&rig);
-            let (path, outcome) = regenerate_at(&out, &spec, &model, settings.check, &command)?;
-            (path, outcome, warnings)
+            (Box::new(model), TableSpec::for_rig(&rig), command, warnings)
         }
-        None => {
-            let model = TABLE_SAND.model(&settings.repo)?;
-            let spec = TableSpec::default();
-            let (path, outcome) =
-                regenerate_at(&out, &spec, &*model, settings.check, DEFAULT_COMMAND)?;
-            (path, outcome, Vec::new())
-        }
+        None => (
+            TABLE_SAND.model(&settings.repo)?,
+            TableSpec::default(),
+            DEFAULT_COMMAND.to_owned(),
+            Vec::new(),
+        ),
     };
+    let (path, outcome) = regenerate_at(&out, &spec, &*model, settings.check, &command)?;
     Ok(Generated {
         path,
         outcome,

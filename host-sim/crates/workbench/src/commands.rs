@@ -103,9 +103,9 @@ pub fn compare(dir: &Path) -> Result<Comparison> {
     let (fit, all, spikes) = calibrated(&exp, effects)?;
     let model = fit.model()?;
     let (r, preds) = residual(&all, &model);
-    let (kept, index) = all.kept();
-    let kept_r: Vec<f64> = index.iter().map(|&i| r[i]).collect();
-    let kept_preds: Vec<_> = index.iter().map(|&i| preds[i]).collect();
+    let kept = all.kept();
+    let kept_r: Vec<f64> = all.used().map(|i| r[i]).collect();
+    let kept_preds: Vec<_> = all.used().map(|i| preds[i]).collect();
     let report = analyse(&kept, &kept_r, &kept_preds);
     let (noise, source) = noise_floor(&exp, &kept, &kept_r);
     let out = dir.join(OUTPUT_DIR);
@@ -244,8 +244,8 @@ fn refit_and_record(
 ) -> Result<DiagnoseOutcome> {
     let (fit, all, _) = calibrated(exp, effects)?;
     let (r, _) = residual(&all, &fit.model()?);
-    let (kept, index) = all.kept();
-    let r: Vec<f64> = index.iter().map(|&i| r[i]).collect();
+    let kept = all.kept();
+    let r: Vec<f64> = all.used().map(|i| r[i]).collect();
     let rmse = (r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt();
     let (noise, _) = noise_floor(exp, &kept, &r);
     let model = ModelFile::of_fit(&fit, version);

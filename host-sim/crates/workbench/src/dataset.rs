@@ -165,9 +165,9 @@ impl Dataset {
     }
 
     /// The samples not skipped, as their own dataset (for statistics over
-    /// the runs: a skipped sample leaves its run), with each kept sample's
-    /// index here.
-    pub fn kept(&self) -> (Dataset, Vec<usize>) {
+    /// the runs: a skipped sample leaves its run), in [`Dataset::used`]
+    /// order.
+    pub fn kept(&self) -> Dataset {
         let runs = self
             .runs
             .iter()
@@ -183,7 +183,7 @@ impl Dataset {
                 ..r.clone()
             })
             .collect();
-        (Self::from_runs(runs), self.used().collect())
+        Self::from_runs(runs)
     }
 
     /// The samples a fit or a score uses, as indices.
@@ -212,19 +212,22 @@ impl Dataset {
 /// first, then each time the one farthest from those already taken.
 fn spread_order(items: &[usize]) -> Vec<usize> {
     let n = items.len();
-    let mut taken: Vec<usize> = Vec::with_capacity(n);
+    // Each position's distance to the nearest one taken, kept up to date
+    // as positions are taken (n·n work, not n³, for hundreds of runs).
+    let mut gap = vec![n; n];
     let mut used = vec![false; n];
+    let mut order = Vec::with_capacity(n);
     for _ in 0..n {
+        // Farthest first; the earliest of equals.
         let next = (0..n)
             .filter(|&i| !used[i])
-            .max_by_key(|&i| {
-                let gap = taken.iter().map(|&t| t.abs_diff(i)).min().unwrap_or(n);
-                // Farthest first; the earliest of equals.
-                (gap, std::cmp::Reverse(i))
-            })
+            .max_by_key(|&i| (gap[i], std::cmp::Reverse(i)))
             .unwrap_or(0);
         used[next] = true;
-        taken.push(next);
+        for (i, g) in gap.iter_mut().enumerate() {
+            *g = (*g).min(i.abs_diff(next));
+        }
+        order.push(items[next]);
     }
-    taken.into_iter().map(|i| items[i]).collect()
+    order
 }

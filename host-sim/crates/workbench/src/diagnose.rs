@@ -270,9 +270,12 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
     )?;
     let (r, _) = residual(&all, &base.model()?);
     let mut skipped = spikes::find(experiment, &all, &r);
+    // Without spikes, the baseline just fitted is the diagnosis' own.
+    let mut prefit = skipped.is_empty().then_some(base);
     let mut tries = 0;
     loop {
-        let (diagnosis, model) = diagnose_skipping(experiment, &basis, &all, &skipped, opts)?;
+        let (diagnosis, model) =
+            diagnose_skipping(experiment, &basis, &all, &skipped, prefit.take(), opts)?;
         if skipped.is_empty() || tries == 1 {
             return Ok(diagnosis);
         }
@@ -288,12 +291,14 @@ pub fn diagnose(experiment: &Experiment, opts: &DiagnoseOptions) -> Result<Diagn
 }
 
 /// [`diagnose`] with the samples `skipped` (spikes) left out of every fit
-/// and score; with the final model.
+/// and score, starting from `base_fit` when the caller has the baseline
+/// fitted to these samples already; with the final model.
 fn diagnose_skipping(
     experiment: &Experiment,
     basis: &std::sync::Arc<RigBasis>,
     all: &Dataset,
     skipped: &[(usize, Spike)],
+    base_fit: Option<Fit>,
     opts: &DiagnoseOptions,
 ) -> Result<(Diagnosis, RigModel)> {
     let mut all = all.clone();
@@ -302,12 +307,14 @@ fn diagnose_skipping(
     }
     let data = all.thinned(MAX_FIT_SAMPLES);
     let masks = folds(&data, opts.max_folds);
-    let base_fit = fit_effects(basis, &data, Params::default(), Vec::new(), opts.fit)?;
+    let base_fit = match base_fit {
+        Some(fit) => fit,
+        None => fit_effects(basis, &data, Params::default(), Vec::new(), opts.fit)?,
+    };
     let spikes: Vec<Spike> = skipped.iter().map(|(_, s)| s.clone()).collect();
-    let (kept, index) = all.kept();
-    let base_model = base_fit.model()?;
-    let (base_r, _) = residual(&all, &base_model);
-    let base_r: Vec<f64> = index.iter().map(|&i| base_r[i]).collect();
+    let (base_r, _) = residual(&all, &base_fit.model()?);
+    let kept = all.kept();
+    let base_r: Vec<f64> = all.used().map(|i| base_r[i]).collect();
     let (noise, noise_source) = noise_floor(experiment, &kept, &base_r);
     let base_heldout = heldout(&base_fit, &data, &masks, opts);
     let baseline = score(&base_fit, base_heldout);
@@ -404,8 +411,8 @@ fn diagnose_skipping(
 
     let final_model = current.model()?;
     let (r, preds) = residual(&all, &final_model);
-    let r: Vec<f64> = index.iter().map(|&i| r[i]).collect();
-    let preds: Vec<_> = index.iter().map(|&i| preds[i]).collect();
+    let r: Vec<f64> = all.used().map(|i| r[i]).collect();
+    let preds: Vec<_> = all.used().map(|i| preds[i]).collect();
     let report = analyse(&kept, &r, &preds);
     let final_rmse = report.overall.rmse_kpa;
     let unexplained = unexplained(&report, noise);

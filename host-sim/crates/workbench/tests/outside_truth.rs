@@ -42,13 +42,18 @@ pub fn cases() -> Vec<(&'static str, Vec<Hidden>)> {
     ]
 }
 
+/// Whether `name` is a form of the baseline rather than an effect.
+fn is_baseline_form(name: &str) -> bool {
+    model::effects::EffectSpec::by_name(name).is_ok_and(|s| s.kind.is_baseline_form())
+}
+
 /// The library effects a diagnosis selected (its forms of the baseline
 /// left out).
 fn effects(d: &Diagnosis) -> Vec<&str> {
     d.selected
         .iter()
         .map(String::as_str)
-        .filter(|s| !matches!(*s, "sand_depth_power" | "sand_unloading" | "skin_shape"))
+        .filter(|s| !is_baseline_form(s))
         .collect()
 }
 
@@ -88,10 +93,8 @@ fn outside_confusion_matrix() {
                 let mut truth = Truth::new(hidden.clone(), seed);
                 truth.skin_known = skin_known;
                 let (_, d) = diagnosed(&truth);
-                let (forms, effects): (Vec<&String>, Vec<&String>) = d
-                    .selected
-                    .iter()
-                    .partition(|s| s.starts_with("sand_") || s.starts_with("skin_shape"));
+                let (forms, effects): (Vec<&String>, Vec<&String>) =
+                    d.selected.iter().partition(|s| is_baseline_form(s));
                 let prim: Vec<String> = hidden
                     .iter()
                     .filter_map(|h| h.library())
