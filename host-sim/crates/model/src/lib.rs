@@ -206,14 +206,15 @@ impl RigModel {
         let holds_volume = built.iter().any(|e| e.holds_volume());
         let sand = basis.sand.map(|base| {
             let at_rest = base.at_rest_coefficient * params.sand_at_rest_factor;
+            let own = SandParams {
+                at_rest_coefficient: at_rest,
+                limit_coefficient: base.limit_coefficient * params.sand_limit_factor,
+                active_coefficient: base.active_coefficient.min(at_rest),
+                characteristic_diameter_increase_mm: params.sand_rise_mm.max(1e-6),
+                ..base
+            };
             ParametricSand {
-                params: SandParams {
-                    at_rest_coefficient: at_rest,
-                    limit_coefficient: base.limit_coefficient * params.sand_limit_factor,
-                    active_coefficient: base.active_coefficient.min(at_rest),
-                    characteristic_diameter_increase_mm: params.sand_rise_mm.max(1e-6),
-                    ..base
-                },
+                params: built.iter().fold(own, |p, e| e.sand(p)),
             }
         });
         Ok(RigModel {

@@ -22,6 +22,8 @@
 //! - **unloading** (the zone shrinks from its peak, or regrows up to it):
 //!   elastic, K = K_peak − s·(D_peak − D), floored at the active
 //!   coefficient Ka (the sand follows the skin in but cannot pull on it);
+//!   [`Unloading::curvature`] bends that line into a curve with the same
+//!   initial slope and floor, for a model trying another form;
 //! - **fresh cycle**: the animal advances about 1 mm per cycle into sand the
 //!   last expansion did not touch, so each cycle starts at rest (D0, K0).
 
@@ -66,6 +68,23 @@ pub struct Unloading {
     pub slope_per_mm: f64,
     /// Active coefficient Ka, the floor while the zone shrinks.
     pub active_coefficient: f64,
+    /// Shape c of the branch between the peak and the floor, with
+    /// x = s·(D_peak − D)/(K_peak − Ka): K = Ka + (K_peak − Ka)·(1 − c·x)^(1/c).
+    /// 1 is the straight line of both laws; 0 an exponential approach,
+    /// exp(−x); below 0 a longer tail. Always the same initial slope s.
+    pub curvature: f64,
+}
+
+impl Unloading {
+    /// The straight unloading line of slope `slope_per_mm` floored at
+    /// `active_coefficient`.
+    pub fn straight(slope_per_mm: f64, active_coefficient: f64) -> Self {
+        Self {
+            slope_per_mm,
+            active_coefficient,
+            curvature: 1.0,
+        }
+    }
 }
 
 impl Unloading {
@@ -87,7 +106,19 @@ impl Unloading {
             k
         } else {
             let back = history.peak_diameter_mm - diameter_mm;
-            (history.peak_coefficient - self.slope_per_mm * back).max(self.active_coefficient)
+            let span = history.peak_coefficient - self.active_coefficient;
+            if self.curvature == 1.0 || span <= 0.0 {
+                return (history.peak_coefficient - self.slope_per_mm * back)
+                    .max(self.active_coefficient);
+            }
+            let x = self.slope_per_mm * back / span;
+            let c = self.curvature;
+            let left = if c.abs() < 1e-9 {
+                (-x).exp()
+            } else {
+                (1.0 - c * x).max(0.0).powf(1.0 / c)
+            };
+            self.active_coefficient + span * left
         }
     }
 }

@@ -38,6 +38,10 @@ pub struct SandParams {
     pub characteristic_diameter_increase_mm: f64,
     /// Unloading slope as a multiple m of the initial loading slope.
     pub unloading_stiffness_ratio: f64,
+    /// Shape c of the rise, x = ΔD/ΔDc: f = (1 − e^(−(1+c)x))/(1 + c·e^(−(1+c)x)),
+    /// which is tanh(x) at c = 1 (the law's own), 1 − e^(−x) at c = 0 (a
+    /// more gradual approach to N), steeper above 1; always f'(0) = 1.
+    pub rise_shape: f64,
 }
 
 /// Effective friction angle assumed for the sand (degrees): a loose,
@@ -69,6 +73,7 @@ impl SandParams {
             initial_diameter_mm: d0,
             characteristic_diameter_increase_mm: (RISE_DONE_DIAMETER_MM - d0) / 0.95_f64.atanh(),
             unloading_stiffness_ratio: 5.0,
+            rise_shape: 1.0,
         }
     }
 
@@ -146,10 +151,15 @@ impl ParametricSand {
     /// K on the loading branch at diameter `diameter_mm` (≥ D0).
     pub fn loading_coefficient(&self, diameter_mm: f64) -> f64 {
         let p = &self.params;
-        let rise = (diameter_mm - p.initial_diameter_mm).max(0.0);
-        p.at_rest_coefficient
-            + (p.limit_coefficient - p.at_rest_coefficient)
-                * (rise / p.characteristic_diameter_increase_mm).tanh()
+        let x =
+            (diameter_mm - p.initial_diameter_mm).max(0.0) / p.characteristic_diameter_increase_mm;
+        let f = if p.rise_shape == 1.0 {
+            x.tanh()
+        } else {
+            let e = (-(1.0 + p.rise_shape) * x).exp();
+            (1.0 - e) / (1.0 + p.rise_shape * e)
+        };
+        p.at_rest_coefficient + (p.limit_coefficient - p.at_rest_coefficient) * f
     }
 
     /// Unloading slope s = dK/dD (1/mm).
@@ -174,10 +184,10 @@ impl ParametricSand {
 
     /// Its unloading rule: slope [`Self::unloading_slope_per_mm`], floor Ka.
     pub fn unloading(&self) -> Unloading {
-        Unloading {
-            slope_per_mm: self.unloading_slope_per_mm(),
-            active_coefficient: self.params.active_coefficient,
-        }
+        Unloading::straight(
+            self.unloading_slope_per_mm(),
+            self.params.active_coefficient,
+        )
     }
 }
 

@@ -33,8 +33,8 @@ fn main() -> Result<()> {
                 synth.rig.measurement.pressure_source = PressureSource::PistonForce;
             }
             if *name == "skin_shape" {
-                // The skin's form is a candidate only where rig.toml does
-                // not give the skin's law.
+                // The harder case: the skin's scale is fitted beside its
+                // shape.
                 synth.rig.skin = None;
             }
             if name.starts_with("outside") {

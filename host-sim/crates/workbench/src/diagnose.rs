@@ -2,8 +2,8 @@
 //!
 //! For each library effect that can act in the rig, calibrate the current
 //! model plus that effect and score it: ΔBIC against the current model (the
-//! ranking) and, for the best few, the held-out RMSE of a leave-one-run-out
-//! cross-validation (contiguous time blocks when there is a single run).
+//! ranking) and, for the best few, the held-out RMSE of a cross-validation (whole runs held out
+//! where every depth has several, else time blocks of every run).
 //! Effects are added greedily while the best one pays off on every count:
 //! ΔBIC ≤ −10, held-out error down by ≥ 2 %, and at least a third of the
 //! residual's excess over the noise floor explained. A structured residual
@@ -37,9 +37,17 @@ pub struct DiagnoseOptions {
     pub max_delta_bic: f64,
     /// Relative held-out improvement an effect must reach.
     pub min_heldout_gain: f64,
+    /// Cross-validation folds in which an effect may predict worse than
+    /// the current model: a physical effect answers the pump's history the
+    /// same way everywhere, so it helps in every fold; one that soaks up a
+    /// drift outside the library helps in some and hurts in others. A form
+    /// of the baseline may be worse in one fold more: it is judged against
+    /// a model that may still lack a physical effect, whose misfit can
+    /// outweigh the form's gain where that effect is strongest.
+    pub max_folds_worse: usize,
     /// Fraction of the excess variance over the noise floor it must remove.
     pub min_excess_explained: f64,
-    /// Most effects added.
+    /// Most physical effects added (forms of the baseline come on top).
     pub max_effects: usize,
 }
 
@@ -52,6 +60,7 @@ impl Default for DiagnoseOptions {
             cv_top: 3,
             max_delta_bic: -10.0,
             min_heldout_gain: 0.02,
+            max_folds_worse: 0,
             min_excess_explained: 0.33,
             max_effects: 4,
         }
@@ -67,6 +76,9 @@ pub struct Candidate {
     pub rmse_kpa: f64,
     /// Held-out RMSE, for the best few (kPa).
     pub heldout_rmse_kpa: Option<f64>,
+    /// For the best few: in how many cross-validation folds the held-out
+    /// RMSE fell against the current model's, of how many.
+    pub heldout_folds_better: Option<[usize; 2]>,
     /// BIC with the effect.
     pub bic: f64,
     /// Ranking score: ΔBIC against the current model (lower is better).
@@ -79,6 +91,17 @@ pub struct Candidate {
     /// the data push it past what the effect can be, so it is not
     /// accepted however much it pays.
     pub at_bound: Vec<String>,
+    /// Why its fitted size cannot be told apart from an uncertainty of
+    /// what rig.toml states ([`EffectSpec::indistinct`]); not accepted
+    /// then either.
+    pub indistinct: Option<String>,
+    /// RMS change of the model's reading it makes over the fitted samples
+    /// (kPa); below the noise floor a physical effect is not accepted: a
+    /// change smaller than one reading's noise cannot be told from what
+    /// the baseline's forms leave of a sand or skin that is not the
+    /// model's. Forms of the baseline are exempt: taking up the baseline's
+    /// misfit, however small, is their job.
+    pub change_rms_kpa: f64,
 }
 
 /// The fit of a model structure, summarized.
@@ -147,25 +170,71 @@ pub struct Diagnosis {
     pub samples: [usize; 2],
 }
 
-/// Training masks of the cross-validation folds.
+/// Training masks of the cross-validation folds. Where every depth has
+/// two runs or more, whole runs are held out, never every run of one
+/// depth (leaving out the only run at a depth would test how a depth law
+/// extrapolates, not whether the model generalises). Otherwise each run
+/// is cut into `k` contiguous time blocks and fold f holds out block
+/// (f + run) mod k of every run: every fold still trains on every depth
+/// and, across runs, on every phase.
 fn folds(data: &Dataset, max_folds: usize) -> Vec<Vec<bool>> {
-    let n = data.len();
-    let runs = data.runs.len();
     let k = max_folds.max(2);
-    if runs >= 2 {
-        let k = k.min(runs);
-        (0..k)
-            .map(|f| data.run_of.iter().map(|&r| r % k != f).collect())
-            .collect()
-    } else {
-        (0..3)
-            .map(|f| (0..n).map(|i| i * 3 / n.max(1) != f).collect())
-            .collect()
+    let mut by_depth: Vec<(f64, usize)> = Vec::new();
+    let mut rank = Vec::with_capacity(data.runs.len());
+    for run in &data.runs {
+        match by_depth.iter_mut().find(|(h, _)| *h == run.depth_mm) {
+            Some((_, n)) => {
+                rank.push(*n);
+                *n += 1;
+            }
+            None => {
+                rank.push(0);
+                by_depth.push((run.depth_mm, 1));
+            }
+        }
+    }
+    let fewest = by_depth.iter().map(|d| d.1).min().unwrap_or(0);
+    if fewest >= 2 {
+        let most = by_depth.iter().map(|d| d.1).max().unwrap_or(0);
+        let k = k.min(most);
+        return (0..k)
+            .map(|f| data.run_of.iter().map(|&r| rank[r] % k != f).collect())
+            .collect();
+    }
+    (0..k)
+        .map(|f| {
+            (0..data.len())
+                .map(|i| {
+                    let r = data.run_of[i];
+                    let (start, end) = (data.offsets[r], data.offsets[r + 1]);
+                    let block = (i - start) * k / (end - start).max(1);
+                    (block + r) % k != f
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Held-out RMSE of a model, overall and in each fold (kPa).
+#[derive(Clone, Debug, PartialEq)]
+struct Heldout {
+    overall: f64,
+    folds: Vec<f64>,
+}
+
+impl Heldout {
+    /// Folds in which `self` predicts better than `other`.
+    fn better_folds(&self, other: &Heldout) -> usize {
+        self.folds
+            .iter()
+            .zip(&other.folds)
+            .filter(|(a, b)| a < b)
+            .count()
     }
 }
 
 /// Held-out RMSE of `space` (warm start from `full`).
-fn heldout(full: &Fit, data: &Dataset, masks: &[Vec<bool>], opts: &DiagnoseOptions) -> f64 {
+fn heldout(full: &Fit, data: &Dataset, masks: &[Vec<bool>], opts: &DiagnoseOptions) -> Heldout {
     let cv = FitOptions {
         max_iterations: opts.cv_iterations,
         ..opts.fit
@@ -192,7 +261,13 @@ fn heldout(full: &Fit, data: &Dataset, masks: &[Vec<bool>], opts: &DiagnoseOptio
         .collect();
     let s: f64 = parts.iter().map(|p| p.0).sum();
     let n: usize = parts.iter().map(|p| p.1).sum();
-    (s / n.max(1) as f64).sqrt()
+    Heldout {
+        overall: (s / n.max(1) as f64).sqrt(),
+        folds: parts
+            .iter()
+            .map(|(s, n)| (s / (*n).max(1) as f64).sqrt())
+            .collect(),
+    }
 }
 
 fn score(fit: &Fit, heldout_rmse_kpa: f64) -> ModelScore {
@@ -317,7 +392,7 @@ fn diagnose_skipping(
     let base_r: Vec<f64> = all.used().map(|i| base_r[i]).collect();
     let (noise, noise_source) = noise_floor(experiment, &kept, &base_r);
     let base_heldout = heldout(&base_fit, &data, &masks, opts);
-    let baseline = score(&base_fit, base_heldout);
+    let baseline = score(&base_fit, base_heldout.overall);
 
     let mut not_applicable = Vec::new();
     let applicable: Vec<&'static EffectSpec> = REGISTRY
@@ -336,7 +411,8 @@ fn diagnose_skipping(
     let mut current_heldout = base_heldout;
     let mut rounds: Vec<Vec<Candidate>> = Vec::new();
     let mut selected: Vec<String> = Vec::new();
-    while selected.len() < opts.max_effects {
+    let mut physical = 0;
+    loop {
         let on: Vec<&str> = current.space.effects.iter().map(|e| e.spec.name).collect();
         let tries: Vec<&'static EffectSpec> = applicable
             .iter()
@@ -348,6 +424,7 @@ fn diagnose_skipping(
         }
         let excess = (current.rmse_kpa.powi(2) - noise * noise).max(1e-12);
         let current_bic = current.bic();
+        let current_pred = data.predict(&current.model()?);
         let mut fits: Vec<(Fit, Candidate)> = tries
             .par_iter()
             .filter_map(|spec| {
@@ -367,41 +444,81 @@ fn diagnose_skipping(
                     .filter(|p| p.at_bound && p.name.starts_with(&own))
                     .map(|p| p.name.clone())
                     .collect();
+                let indistinct = fit
+                    .space
+                    .effects
+                    .last()
+                    .and_then(|e| (spec.indistinct)(&experiment.rig, &e.values))
+                    .map(str::to_owned);
+                // How much the effect changes the model's reading.
+                let pred = data.predict(&fit.model().ok()?);
+                let (mut sq, mut n) = (0.0, 0usize);
+                for (i, (a, b)) in pred.iter().zip(&current_pred).enumerate() {
+                    if !data.skip[i] {
+                        sq += (a - b) * (a - b);
+                        n += 1;
+                    }
+                }
+                let change_rms_kpa = (sq / n.max(1) as f64).sqrt();
                 let cand = Candidate {
                     effect: spec.name.to_owned(),
                     rmse_kpa: fit.rmse_kpa,
                     heldout_rmse_kpa: None,
+                    heldout_folds_better: None,
                     bic: fit.bic(),
                     score: fit.bic() - current_bic,
                     excess_explained: explained,
                     params: fit.params.clone(),
                     at_bound,
+                    indistinct,
+                    change_rms_kpa,
                 };
                 Some((fit, cand))
             })
             .collect();
         fits.sort_by(|a, b| a.1.score.total_cmp(&b.1.score));
-        for (fit, cand) in fits.iter_mut().take(opts.cv_top) {
-            cand.heldout_rmse_kpa = Some(heldout(fit, &data, &masks, opts));
-        }
-        let best = fits.first().and_then(|(fit, cand)| {
-            let h = cand.heldout_rmse_kpa?;
+        // The best few of each kind (forms of the baseline, physical
+        // effects) are cross-validated; the best admissible one by ΔBIC is
+        // taken.
+        let is_form =
+            |c: &Candidate| EffectSpec::by_name(&c.effect).is_ok_and(|s| s.kind.is_baseline_form());
+        let (mut forms_seen, mut effects_seen) = (0, 0);
+        let mut best: Option<(Fit, Heldout)> = None;
+        for (fit, cand) in fits.iter_mut() {
+            let form = is_form(cand);
+            let seen = if form {
+                &mut forms_seen
+            } else {
+                &mut effects_seen
+            };
+            if *seen >= opts.cv_top {
+                continue;
+            }
+            *seen += 1;
+            let h = heldout(fit, &data, &masks, opts);
+            let better = h.better_folds(&current_heldout);
+            cand.heldout_rmse_kpa = Some(h.overall);
+            cand.heldout_folds_better = Some([better, h.folds.len()]);
             let pays = cand.score <= opts.max_delta_bic
-                && h <= current_heldout * (1.0 - opts.min_heldout_gain)
+                && h.overall <= current_heldout.overall * (1.0 - opts.min_heldout_gain)
+                && better + opts.max_folds_worse + usize::from(form) >= h.folds.len()
                 && cand.excess_explained >= opts.min_excess_explained
-                && cand.at_bound.is_empty();
-            pays.then(|| (fit.clone(), h))
-        });
+                && cand.at_bound.is_empty()
+                && cand.indistinct.is_none()
+                && (form || cand.change_rms_kpa >= noise)
+                && (form || physical < opts.max_effects);
+            if pays && best.is_none() {
+                best = Some((fit.clone(), h));
+            }
+        }
         rounds.push(fits.iter().map(|f| f.1.clone()).collect());
         match best {
             Some((fit, h)) => {
-                selected.push(
-                    fit.space
-                        .effects
-                        .last()
-                        .map(|e| e.spec.name.to_owned())
-                        .unwrap_or_default(),
-                );
+                let added = fit.space.effects.last().map(|e| e.spec);
+                if added.is_some_and(|s| !s.kind.is_baseline_form()) {
+                    physical += 1;
+                }
+                selected.push(added.map(|s| s.name.to_owned()).unwrap_or_default());
                 current = fit;
                 current_heldout = h;
             }
@@ -451,7 +568,7 @@ fn diagnose_skipping(
         selected_details,
         params: current.params.clone(),
         final_rmse_kpa: final_rmse,
-        final_heldout_rmse_kpa: current_heldout,
+        final_heldout_rmse_kpa: current_heldout.overall,
         noise_floor_kpa: noise,
         noise_floor_source: noise_source,
         unexplained,

@@ -60,7 +60,7 @@ fn hidden_fit(name: &str, seed: u64) -> (f64, f64) {
         synth.rig.measurement.pressure_source = PressureSource::PistonForce;
     }
     if name == "skin_shape" {
-        // A candidate only where rig.toml does not give the skin's law.
+        // The harder case: the skin's scale is fitted beside its shape.
         synth.rig.skin = None;
     }
     let d = run(&synth);
@@ -426,11 +426,20 @@ fn a_sand_whose_push_is_not_proportional_to_depth_is_named_in_words() {
 }
 
 #[test]
-fn a_skin_of_another_shape_is_named_where_the_rig_gives_no_skin() {
+fn a_skin_of_another_shape_is_named_with_or_without_its_law() {
+    // Without [skin] (the scale fitted too), in `hidden`.
     hidden("skin_shape", 7);
-    // With the skin's law given, its shape is not a candidate.
-    let d = run(&case(Vec::new(), DT_S, 7));
-    assert!(d.not_applicable.iter().any(|(n, _)| n == "skin_shape"));
+    // With rig.toml's [skin] (a coupon law that does not carry over to
+    // the tube): named in words.
+    let d = run(&case(vec![typical("skin_shape").unwrap()], DT_S, 7));
+    assert_eq!(d.selected, ["skin_shape"]);
+    let text = workbench::commands::diagnosis_text(&d);
+    assert!(
+        text.contains(
+            "skin_shape (the baseline's form): the skin stiffens more with stretch than its law"
+        ),
+        "{text}"
+    );
 }
 
 #[test]

@@ -23,6 +23,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     kind: EffectKind::Physical,
     build: |v| Box::new(Leak { ml_per_s_per_kpa: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
+    indistinct: |_, _| None,
 };
 
 /// A pressure-driven leak. State: [lost volume so far (mL), -].

@@ -23,6 +23,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     kind: EffectKind::Physical,
     build: |v| Box::new(LineLoss { resistance_kpa_s_per_ml: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
+    indistinct: |_, _| None,
 };
 
 /// A linear flow resistance.

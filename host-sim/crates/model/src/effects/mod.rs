@@ -26,13 +26,14 @@ use serde::Serialize;
 
 use crate::params::ParamSpec;
 use rig::{PressureSource, Rig};
-use sand::Unloading;
+use sand::{SandParams, Unloading};
 
 pub mod leak;
 pub mod line_loss;
 pub mod mullins_softening;
 pub mod piston_friction;
 pub mod sand_depth_power;
+pub mod sand_rise;
 pub mod sand_unloading;
 pub mod sensor_gain;
 pub mod sensor_lag;
@@ -46,7 +47,7 @@ pub mod wall_arching;
 /// within a hook (volume, depth, skin: mullins before viscoelasticity;
 /// sensor: physical terms, then gain, then offset). A new effect is one
 /// file and one row here.
-pub static REGISTRY: [&EffectSpec; 13] = [
+pub static REGISTRY: [&EffectSpec; 14] = [
     &leak::SPEC,
     &trapped_air::SPEC,
     &wall_arching::SPEC,
@@ -64,6 +65,7 @@ pub static REGISTRY: [&EffectSpec; 13] = [
     &sand_depth_power::SPEC,
     &skin_shape::SPEC,
     &sand_unloading::SPEC,
+    &sand_rise::SPEC,
 ];
 
 /// Per-run memory of one effect (meaning is the effect's own).
@@ -123,6 +125,12 @@ pub trait Effect: Send + Sync + fmt::Debug {
         depth_mm
     }
 
+    /// The sand law's coefficients, given them so far (the baseline's, or
+    /// an earlier effect's); applied once when the model is built.
+    fn sand(&self, params: SandParams) -> SandParams {
+        params
+    }
+
     /// The sand's unloading rule, given the rule so far (the sand law's,
     /// or an earlier effect's).
     fn unloading(&self, unloading: Unloading) -> Unloading {
@@ -171,6 +179,10 @@ pub struct EffectSpec {
     /// Why it cannot act in `rig` (`None`: it can).
     #[serde(skip)]
     pub not_applicable: fn(&Rig) -> Option<&'static str>,
+    /// Why a fit at these values (in `params` order) cannot be told apart
+    /// from an uncertainty of what rig.toml states (`None`: it can).
+    #[serde(skip)]
+    pub indistinct: fn(&Rig, &[f64]) -> Option<&'static str>,
 }
 
 /// What a registry row stands for.
@@ -378,8 +390,9 @@ mod tests {
             ("wall_arching", "mu_k"),
             ("sensor_lag", "lag_s"),
             ("sand_depth_power", "exponent"),
-            ("skin_shape", "stretch_power"),
+            ("skin_shape", "stiffening_linear"),
             ("sand_unloading", "slope_factor"),
+            ("sand_rise", "shape"),
         ];
         for (name, primary) in want {
             assert_eq!(EffectSpec::by_name(name).unwrap().params[0].name, primary);
@@ -401,7 +414,7 @@ mod tests {
                 .iter()
                 .enumerate()
                 .map(|(i, p)| match (spec.name, i) {
-                    ("sensor_gain" | "sand_depth_power" | "sand_unloading", 0) => 1.0,
+                    ("sensor_gain" | "sand_depth_power" | "sand_unloading" | "sand_rise", 0) => 1.0,
                     (_, 0) => 0.0,
                     _ => p.default,
                 })

@@ -25,6 +25,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     kind: EffectKind::Physical,
     build: |v| Box::new(MullinsSoftening { fraction: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
+    indistinct: |_, _| None,
 };
 
 /// Mullins softening. State: [largest diameter so far (mm), -].

@@ -29,6 +29,7 @@ pub static SPEC: EffectSpec = EffectSpec {
         PressureSource::PistonForce => None,
         PressureSource::LineSensor => Some("pressure comes from a line sensor, which does not feel the piston's friction"),
     },
+    indistinct: |_, _| None,
 };
 
 /// Seal friction on the piston.

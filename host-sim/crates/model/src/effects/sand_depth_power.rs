@@ -40,6 +40,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     },
     build: |v| Box::new(SandDepthPower { exponent: value(v, &PARAMS, 0) }),
     not_applicable: |rig: &Rig| rig.sand.is_none().then_some("rig.toml has no [sand]"),
+    indistinct: |_, _| None,
 };
 
 /// The sand's push as a power of depth.

@@ -3,39 +3,65 @@
 //! along a straight unloading branch of slope s (dK/dD) down to the active
 //! coefficient Ka. A sand that relaxes more softly (it follows the
 //! shrinking zone less, a looser or more compressible bed) or more
-//! steeply breaks that; here the slope is f·s.
+//! steeply breaks that; here the slope is f·s, and the branch may bend
+//! from the straight line into a curve towards the same floor (a sand
+//! whose push decays exponentially, or with a longer tail, as it unloads).
 
 use super::{value, Effect, EffectKind, EffectSpec};
 use crate::params::ParamSpec;
 use rig::Rig;
 use sand::Unloading;
 
-const PARAMS: [ParamSpec; 1] = [ParamSpec {
-    name: "slope_factor",
-    unit: "-",
-    lower: 0.05,
-    upper: 20.0,
-    default: 1.0,
-    description: "factor on the sand's unloading slope (1: the law's own)",
-}];
+const PARAMS: [ParamSpec; 2] = [
+    ParamSpec {
+        name: "slope_factor",
+        unit: "-",
+        lower: 0.05,
+        upper: 20.0,
+        default: 1.0,
+        description: "factor on the sand's initial unloading slope (1: the law's own)",
+    },
+    ParamSpec {
+        name: "curvature",
+        unit: "-",
+        lower: -2.0,
+        upper: 1.0,
+        default: 1.0,
+        description:
+            "shape towards the floor: 1 straight (the law's own), 0 exponential, < 0 a longer tail",
+    },
+];
 
 /// Registry row.
 pub static SPEC: EffectSpec = EffectSpec {
     name: "sand_unloading",
-    description: "Baseline form: as the zone shrinks the sand's push falls f times as fast as the sand law's unloading branch says (f = 1).",
+    description: "Baseline form: as the zone shrinks the sand's push falls f times as fast as the sand law's unloading branch says (f = 1), along a straight line or a curve to the same floor.",
     signature: "misfit only in the shrink phases of buried runs, none in free water or while the zone swells, growing with depth",
     params: &PARAMS,
     kind: EffectKind::BaselineForm {
         words: |v| {
-            let f = value(v, &PARAMS, 0);
+            let (f, c) = (value(v, &PARAMS, 0), value(v, &PARAMS, 1));
+            let shape = if c > 0.75 {
+                "along a nearly straight line to its floor".to_owned()
+            } else if c > -0.25 {
+                format!("along a curve that flattens towards its floor, near an exponential decay (curvature {c:.2})")
+            } else {
+                format!("along a curve with a long tail above its floor (curvature {c:.2})")
+            };
             format!(
-                "the sand unloads {} than the model (its push falls {f:.2} times as fast as the zone shrinks)",
+                "the sand unloads {} than the model at first (its push falls {f:.2} times as fast as the zone starts to shrink), {shape}",
                 if f < 1.0 { "more softly" } else { "more steeply" }
             )
         },
     },
-    build: |v| Box::new(SandUnloading { slope_factor: value(v, &PARAMS, 0) }),
+    build: |v| {
+        Box::new(SandUnloading {
+            slope_factor: value(v, &PARAMS, 0),
+            curvature: value(v, &PARAMS, 1),
+        })
+    },
     not_applicable: |rig: &Rig| rig.sand.is_none().then_some("rig.toml has no [sand]"),
+    indistinct: |_, _| None,
 };
 
 /// Another slope of the sand's unloading branch.
@@ -43,6 +69,8 @@ pub static SPEC: EffectSpec = EffectSpec {
 pub struct SandUnloading {
     /// Factor f on the law's slope.
     pub slope_factor: f64,
+    /// [`Unloading::curvature`] of the branch.
+    pub curvature: f64,
 }
 
 impl Effect for SandUnloading {
@@ -52,6 +80,7 @@ impl Effect for SandUnloading {
     fn unloading(&self, unloading: Unloading) -> Unloading {
         Unloading {
             slope_per_mm: self.slope_factor * unloading.slope_per_mm,
+            curvature: self.curvature,
             ..unloading
         }
     }

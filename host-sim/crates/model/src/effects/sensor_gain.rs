@@ -1,9 +1,17 @@
 //! `sensor_gain`: the transducer's sensitivity differs from its datasheet
 //! (a wrong calibration factor): reading = gain·p. Identifiable against
-//! the skin only when the skin is known (`[skin]` in rig.toml).
+//! the skin only when the skin is known (`[skin]` in rig.toml): without
+//! it the skin's fitted scale and the sand's fitted factors carry any
+//! gain, so it is not tried.
 
 use super::{value, Effect, EffectKind, EffectSpec};
 use crate::params::ParamSpec;
+
+/// How far the scale of a stated skin law (rig.toml's `[skin]`, a coupon
+/// fit) may be off for the inflated tube: a reading's gain is only told
+/// apart from that beyond it. Imposed: specimen-to-specimen scatter of
+/// coupon fits and the uniaxial-to-biaxial step are each a few per cent.
+pub const SKIN_LAW_SCALE_TOLERANCE: f64 = 0.05;
 
 const PARAMS: [ParamSpec; 1] = [ParamSpec {
     name: "gain",
@@ -22,7 +30,17 @@ pub static SPEC: EffectSpec = EffectSpec {
     params: &PARAMS,
     kind: EffectKind::Physical,
     build: |v| Box::new(SensorGain { gain: value(v, &PARAMS, 0) }),
-    not_applicable: |_| None,
+    not_applicable: |rig| {
+        rig.skin.is_none().then_some(
+            "rig.toml gives no [skin]: the skin's fitted scale and the sand's factors absorb a gain",
+        )
+    },
+    indistinct: |rig, v| {
+        let gain = value(v, &PARAMS, 0);
+        (rig.skin.is_some() && (gain - 1.0).abs() < SKIN_LAW_SCALE_TOLERANCE).then_some(
+            "closer to 1 than the scale of rig.toml's [skin] law is known in the inflated tube: not told apart from that law being off",
+        )
+    },
 };
 
 /// A gain on the reading.

@@ -23,6 +23,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     kind: EffectKind::Physical,
     build: |v| Box::new(SensorOffset { offset_kpa: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
+    indistinct: |_, _| None,
 };
 
 /// A constant offset on the reading.

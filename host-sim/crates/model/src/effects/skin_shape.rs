@@ -1,50 +1,75 @@
-//! `skin_shape`, a form of the baseline rather than an effect: when
-//! rig.toml gives no `[skin]`, the model takes the project's default Yeoh
-//! law and fits only its scale. A skin of another shape (stiffening
-//! sooner or later with stretch, another rubber) breaks that; here the
-//! skin's pressure is times (D/D0)^m, m = 0 the default law's shape.
+//! `skin_shape`, a form of the baseline rather than an effect: the skin's
+//! law is taken as given (rig.toml's `[skin]`, a coupon fit) or as the
+//! project's default Yeoh law with only its scale fitted. A skin that
+//! stiffens sooner or later with stretch than that law (another rubber, a
+//! coupon law that does not carry over to the inflated tube) breaks it;
+//! here the skin's pressure is times 1 + a·x + b·x², x = λ² + λ⁻² − 2 the
+//! first invariant's excess I1 − 3 of a tube stretched by λ = D/D0 — the
+//! shape that adding Yeoh's c20 (a ≈ 2·c20/c10) and c30 (b ≈ 3·c30/c10)
+//! terms to a neo-Hookean thin tube gives.
 
 use super::{value, Effect, EffectKind, EffectSpec, StepContext};
 use crate::params::ParamSpec;
-use rig::Rig;
 
-const PARAMS: [ParamSpec; 1] = [ParamSpec {
-    name: "stretch_power",
-    unit: "-",
-    lower: -3.0,
-    upper: 3.0,
-    default: 0.0,
-    description: "power of the stretch D/D0 on the skin's pressure (0: the default law's shape)",
-}];
+const PARAMS: [ParamSpec; 2] = [
+    ParamSpec {
+        name: "stiffening_linear",
+        unit: "-",
+        lower: -5.0,
+        upper: 20.0,
+        default: 0.0,
+        description: "a in 1 + a·x + b·x² on the skin's pressure, x = I1 − 3 (0: the law's shape)",
+    },
+    ParamSpec {
+        name: "stiffening_quadratic",
+        unit: "-",
+        lower: -20.0,
+        upper: 50.0,
+        default: 0.0,
+        description: "b in 1 + a·x + b·x² on the skin's pressure (0: the law's shape)",
+    },
+];
+
+/// Smallest factor on the skin's pressure: a skin never pushes outwards.
+const MIN_FACTOR: f64 = 0.05;
 
 /// Registry row.
 pub static SPEC: EffectSpec = EffectSpec {
     name: "skin_shape",
-    description: "Baseline form: the skin's pressure–diameter curve has another shape than the default Yeoh law's (its pressure times (D/D0)^m); only where rig.toml gives no [skin].",
+    description: "Baseline form: the skin's pressure–diameter curve has another shape than its law's (pressure times 1 + a·x + b·x², x = I1 − 3 at stretch D/D0).",
     signature: "a residual that grows with the zone's diameter in every run, in free water as in sand, the same on loading and unloading",
     params: &PARAMS,
     kind: EffectKind::BaselineForm {
         words: |v| {
-            let m = value(v, &PARAMS, 0);
+            let (a, b) = (value(v, &PARAMS, 0), value(v, &PARAMS, 1));
+            // The factor at a 40 % stretch, a typical working diameter.
+            let x = 1.4f64.powi(2) + 1.4f64.powi(-2) - 2.0;
+            let f = 1.0 + a * x + b * x * x;
             format!(
-                "the skin {} with stretch than the default law (its pressure times (D/D0)^{m:.2})",
-                if m > 0.0 { "stiffens more" } else { "stiffens less" }
+                "the skin stiffens {} with stretch than its law (pressure × {f:.2} at D = 1.4·D0; a = {a:.3}, b = {b:.3}, as if Yeoh's c20/c10 ≈ {:.3} and c30/c10 ≈ {:.3} were added)",
+                if f >= 1.0 { "more" } else { "less" },
+                a / 2.0,
+                b / 3.0
             )
         },
     },
-    build: |v| Box::new(SkinShape { stretch_power: value(v, &PARAMS, 0) }),
-    not_applicable: |rig: &Rig| {
-        rig.skin
-            .is_some()
-            .then_some("rig.toml gives the skin's law ([skin])")
+    build: |v| {
+        Box::new(SkinShape {
+            linear: value(v, &PARAMS, 0),
+            quadratic: value(v, &PARAMS, 1),
+        })
     },
+    not_applicable: |_| None,
+    indistinct: |_, _| None,
 };
 
 /// Another shape of the skin's curve.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SkinShape {
-    /// The power m on D/D0.
-    pub stretch_power: f64,
+    /// a, on x = I1 − 3.
+    pub linear: f64,
+    /// b, on x².
+    pub quadratic: f64,
 }
 
 impl Effect for SkinShape {
@@ -58,6 +83,8 @@ impl Effect for SkinShape {
         diameter_mm: f64,
         skin_kpa: f64,
     ) -> f64 {
-        skin_kpa * (diameter_mm / ctx.initial_diameter_mm).powf(self.stretch_power)
+        let l2 = (diameter_mm / ctx.initial_diameter_mm).powi(2);
+        let x = l2 + 1.0 / l2 - 2.0;
+        skin_kpa * (1.0 + self.linear * x + self.quadratic * x * x).max(MIN_FACTOR)
     }
 }

@@ -39,6 +39,7 @@ pub static SPEC: EffectSpec = EffectSpec {
         tau_s: value(v, &PARAMS, 1),
     }),
     not_applicable: |_| None,
+    indistinct: |_, _| None,
 };
 
 /// One Prony term. State: [overstress q (kPa), skin pressure at the last

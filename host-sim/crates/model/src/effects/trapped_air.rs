@@ -25,6 +25,7 @@ pub static SPEC: EffectSpec = EffectSpec {
     kind: EffectKind::Physical,
     build: |v| Box::new(TrappedAir { gas_volume_ml: value(v, &PARAMS, 0) }),
     not_applicable: |_| None,
+    indistinct: |_, _| None,
 };
 
 /// A trapped gas bubble.

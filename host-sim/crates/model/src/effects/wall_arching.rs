@@ -35,6 +35,7 @@ pub static SPEC: EffectSpec = EffectSpec {
             None
         }
     },
+    indistinct: |_, _| None,
 };
 
 /// Janssen arching against the container walls.

@@ -71,7 +71,7 @@ pub struct Truth {
     /// See `gent_mu_kpa`.
     pub gent_jm: f64,
     /// Whether rig.toml states the skin (as Yeoh coefficients the lab
-    /// fitted to a coupon: near the Gent law at small stretch only).
+    /// fitted to a uniaxial coupon test: the tube is loaded biaxially).
     pub skin_known: bool,
     /// Syringe bore (mm).
     pub bore_mm: f64,
@@ -159,6 +159,46 @@ impl Truth {
         active + (peak.1 - active).max(0.0) * (-(peak.0 - d_mm) / 0.4).exp()
     }
 
+    /// The Yeoh coefficients (kPa) a lab would write for this skin: a
+    /// least-squares fit to a uniaxial coupon test of the Gent rubber,
+    /// nominal stress at stretches 1.02–1.6, the range the tube works in
+    /// (the coupon law, not the
+    /// tube's).
+    // Index loops: a 3×3 elimination reads best as the textbook writes it.
+    #[allow(clippy::needless_range_loop)]
+    fn coupon_yeoh_kpa(&self) -> [f64; 3] {
+        let (mut a, mut b) = ([[0.0; 3]; 3], [0.0; 3]);
+        for k in 0..20 {
+            let l = 1.02 + 0.03 * k as f64;
+            let x = l * l + 2.0 / l - 3.0;
+            let f = 2.0 * (l - 1.0 / (l * l));
+            let gent = f * 0.5 * self.gent_mu_kpa / (1.0 - x / self.gent_jm);
+            let row = [f, f * 2.0 * x, f * 3.0 * x * x];
+            for i in 0..3 {
+                for j in 0..3 {
+                    a[i][j] += row[i] * row[j];
+                }
+                b[i] += row[i] * gent;
+            }
+        }
+        // Gaussian elimination (the matrix is symmetric positive definite).
+        for i in 0..3 {
+            for r in i + 1..3 {
+                let m = a[r][i] / a[i][i];
+                for c in i..3 {
+                    a[r][c] -= m * a[i][c];
+                }
+                b[r] -= m * b[i];
+            }
+        }
+        let mut c = [0.0; 3];
+        for i in (0..3).rev() {
+            let tail: f64 = (i + 1..3).map(|j| a[i][j] * c[j]).sum();
+            c[i] = (b[i] - tail) / a[i][i];
+        }
+        c
+    }
+
     /// The rig.toml this truth's lab would write.
     pub fn rig_toml(&self) -> String {
         let mut s = format!(
@@ -166,12 +206,10 @@ impl Truth {
             self.d0_mm, self.length_mm, self.wall_mm
         );
         if self.skin_known {
-            // A coupon fit: Yeoh with c10 = μ/2 and a mild stiffening.
+            let [c10, c20, c30] = self.coupon_yeoh_kpa();
             let _ = write!(
                 s,
-                "[skin]\nc10_kpa = {}\nc20_kpa = 0.0\nc30_kpa = {}\n\n",
-                0.5 * self.gent_mu_kpa,
-                0.5 * self.gent_mu_kpa / (3.0 * self.gent_jm * self.gent_jm)
+                "[skin]\nc10_kpa = {c10}\nc20_kpa = {c20}\nc30_kpa = {c30}\n\n"
             );
         }
         let _ = write!(
