@@ -98,15 +98,21 @@ fn expected(hidden: &[Hidden], skin_known: bool) -> Vec<&'static str> {
 }
 
 #[test]
-#[ignore = "the full matrix: cargo test -p workbench --test outside_truth -- --ignored --nocapture"]
+#[ignore = "the full matrix: [OUTSIDE_RIG=second] cargo test -p workbench --test outside_truth -- --ignored --nocapture"]
 fn outside_confusion_matrix() {
     println!("case | seed | skin | baseline forms selected | effects selected | primary true→fit | final/noise | unexplained | right");
     let (mut right, mut total, mut primaries_ok, mut primaries) = (0, 0, 0, 0);
     let mut worst_ratio: f64 = 0.0;
+    let rig = std::env::var("OUTSIDE_RIG").unwrap_or_default();
+    let make = if rig == "second" {
+        Truth::second_rig
+    } else {
+        Truth::new
+    };
     for seed in 1..=3 {
         for skin_known in [false, true] {
             for (name, hidden) in cases() {
-                let mut truth = Truth::new(hidden.clone(), seed);
+                let mut truth = make(hidden.clone(), seed);
                 truth.skin_known = skin_known;
                 let (_, d) = diagnosed(&truth);
                 let (forms, effects): (Vec<&String>, Vec<&String>) =
@@ -173,6 +179,11 @@ fn outside_confusion_matrix() {
 #[test]
 #[ignore = "cargo test -p workbench --test outside_truth signatures -- --ignored --nocapture"]
 fn signatures() {
+    let make = if std::env::var("OUTSIDE_RIG").is_ok_and(|r| r == "second") {
+        Truth::second_rig
+    } else {
+        Truth::new
+    };
     let read = |t: &Truth| -> Vec<f64> {
         t.runs_csv()
             .lines()
@@ -180,12 +191,12 @@ fn signatures() {
             .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
             .collect()
     };
-    let mut none = Truth::new(Vec::new(), 1);
+    let mut none = make(Vec::new(), 1);
     none.noise_kpa = 0.0;
     let base = read(&none);
     for (name, hidden) in cases() {
         for h in &hidden {
-            let mut t = Truth::new(vec![*h], 1);
+            let mut t = make(vec![*h], 1);
             t.noise_kpa = 0.0;
             let r = read(&t);
             let rms = (r

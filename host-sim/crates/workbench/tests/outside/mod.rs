@@ -101,6 +101,19 @@ impl Truth {
         }
     }
 
+    /// A second rig: a 16 mm zone (so the same 5 mL stretches it to 1.6),
+    /// a stiffer Gent skin (μ 8 kPa, Jm 4) and a 30 mL syringe (21.7 mm
+    /// bore).
+    pub fn second_rig(hidden: Vec<Hidden>, seed: u64) -> Truth {
+        Truth {
+            length_mm: 16.0,
+            gent_mu_kpa: 8.0,
+            gent_jm: 4.0,
+            bore_mm: 21.7,
+            ..Truth::new(hidden, seed)
+        }
+    }
+
     /// Outer diameter (mm) after `volume_ml` enters the zone: the wall
     /// keeps its volume and the zone its length.
     fn diameter_mm(&self, volume_ml: f64) -> f64 {
