@@ -157,6 +157,9 @@ pub struct Fit {
     pub n: usize,
     /// Root mean square residual over the fitted samples (kPa).
     pub rmse_kpa: f64,
+    /// Residual model − measured at every fitted sample, in the data's
+    /// order (kPa).
+    pub residuals_kpa: Vec<f64>,
     /// Levenberg–Marquardt iterations taken.
     pub iterations: usize,
 }
@@ -330,6 +333,7 @@ pub fn calibrate(
         ssr: s,
         n,
         rmse_kpa: (s / n.max(1) as f64).sqrt(),
+        residuals_kpa: r,
         iterations,
     })
 }

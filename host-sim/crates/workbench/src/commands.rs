@@ -430,37 +430,6 @@ impl Comparison {
     }
 }
 
-/// Why a candidate was not accepted, in brackets (empty when nothing of
-/// its own stands against it).
-fn refusal_text(c: &crate::diagnose::Candidate, noise_kpa: f64) -> String {
-    let form =
-        model::effects::EffectSpec::by_name(&c.effect).is_ok_and(|s| s.kind.is_baseline_form());
-    let mut why = Vec::new();
-    if !c.at_bound.is_empty() {
-        why.push(format!("{} at its bound", c.at_bound.join(", ")));
-    }
-    if let Some(reason) = &c.indistinct {
-        why.push(reason.clone());
-    }
-    if let Some([better, folds]) = c.heldout_folds_better {
-        // A form may be worse in one fold (`DiagnoseOptions::max_folds_worse`).
-        if better + usize::from(form) < folds {
-            why.push(format!("held-out better in {better} of {folds} folds"));
-        }
-    }
-    if !form && c.score < 0.0 && c.change_rms_kpa < noise_kpa {
-        why.push(format!(
-            "changes the reading by {:.4} kPa RMS, below the noise",
-            c.change_rms_kpa
-        ));
-    }
-    if why.is_empty() {
-        String::new()
-    } else {
-        format!("  [{}: not accepted]", why.join("; "))
-    }
-}
-
 /// Human-readable diagnosis.
 pub fn diagnosis_text(d: &Diagnosis) -> String {
     let mut s = format!(
@@ -486,7 +455,11 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
                 .map_or("   -  ".to_owned(), |h| format!("{h:.4}")),
             c.score,
             100.0 * c.excess_explained,
-            refusal_text(c, d.noise_floor_kpa)
+            if c.refusals.is_empty() {
+                String::new()
+            } else {
+                format!("  [{}: not accepted]", c.refusals.join("; "))
+            }
         );
     }
     for (name, why) in &d.not_applicable {

@@ -2,11 +2,14 @@
 //!
 //! For each library effect that can act in the rig, calibrate the current
 //! model plus that effect and score it: ΔBIC against the current model (the
-//! ranking) and, for the best few, the held-out RMSE of a cross-validation (whole runs held out
-//! where every depth has several, else time blocks of every run).
-//! Effects are added greedily while the best one pays off on every count:
-//! ΔBIC ≤ −10, held-out error down by ≥ 2 %, and at least a third of the
-//! residual's excess over the noise floor explained. A structured residual
+//! ranking) and, for the best few, the held-out RMSE of a
+//! cross-validation (whole runs held out where every depth has several,
+//! else time blocks of every run). The best candidate that pays off on
+//! every count is added, round after round: ΔBIC ≤ −10, held-out error
+//! down by ≥ 2 % and in every fold, at least a third of the residual's
+//! excess over the noise floor explained, and none of its own refusals
+//! ([`Candidate::refusals`]). Forms of the baseline compete with the
+//! physical effects on the same terms. A structured residual
 //! that remains is reported as `unexplained`, described in words, rather
 //! than forced onto a wrong effect.
 
@@ -102,6 +105,38 @@ pub struct Candidate {
     /// model's. Forms of the baseline are exempt: taking up the baseline's
     /// misfit, however small, is their job.
     pub change_rms_kpa: f64,
+    /// Every reason of its own that keeps it out, in words (empty when
+    /// only the shared thresholds, ΔBIC, held-out gain and excess
+    /// explained, decide).
+    pub refusals: Vec<String>,
+}
+
+impl Candidate {
+    /// The reasons of its own that keep it out: parameters at a bound, a
+    /// size not told apart from rig.toml, held-out worse in more folds
+    /// than `folds_worse` allows, a physical effect whose change of the
+    /// reading is below `noise_kpa`.
+    fn own_refusals(&self, form: bool, noise_kpa: f64, folds_worse: usize) -> Vec<String> {
+        let mut why = Vec::new();
+        if !self.at_bound.is_empty() {
+            why.push(format!("{} at its bound", self.at_bound.join(", ")));
+        }
+        if let Some(reason) = &self.indistinct {
+            why.push(reason.clone());
+        }
+        if let Some([better, folds]) = self.heldout_folds_better {
+            if better + folds_worse < folds {
+                why.push(format!("held-out better in {better} of {folds} folds"));
+            }
+        }
+        if !form && self.score < 0.0 && self.change_rms_kpa < noise_kpa {
+            why.push(format!(
+                "changes the reading by {:.4} kPa RMS, below the noise",
+                self.change_rms_kpa
+            ));
+        }
+        why
+    }
 }
 
 /// The fit of a model structure, summarized.
@@ -424,7 +459,6 @@ fn diagnose_skipping(
         }
         let excess = (current.rmse_kpa.powi(2) - noise * noise).max(1e-12);
         let current_bic = current.bic();
-        let current_pred = data.predict(&current.model()?);
         let mut fits: Vec<(Fit, Candidate)> = tries
             .par_iter()
             .filter_map(|spec| {
@@ -450,16 +484,15 @@ fn diagnose_skipping(
                     .last()
                     .and_then(|e| (spec.indistinct)(&experiment.rig, &e.values))
                     .map(str::to_owned);
-                // How much the effect changes the model's reading.
-                let pred = data.predict(&fit.model().ok()?);
-                let (mut sq, mut n) = (0.0, 0usize);
-                for (i, (a, b)) in pred.iter().zip(&current_pred).enumerate() {
-                    if !data.skip[i] {
-                        sq += (a - b) * (a - b);
-                        n += 1;
-                    }
-                }
-                let change_rms_kpa = (sq / n.max(1) as f64).sqrt();
+                // How much the effect changes the model's reading: both
+                // residuals are over the same fitted samples.
+                let change_sq: f64 = fit
+                    .residuals_kpa
+                    .iter()
+                    .zip(&current.residuals_kpa)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum();
+                let change_rms_kpa = (change_sq / fit.residuals_kpa.len().max(1) as f64).sqrt();
                 let cand = Candidate {
                     effect: spec.name.to_owned(),
                     rmse_kpa: fit.rmse_kpa,
@@ -472,6 +505,7 @@ fn diagnose_skipping(
                     at_bound,
                     indistinct,
                     change_rms_kpa,
+                    refusals: Vec::new(),
                 };
                 Some((fit, cand))
             })
@@ -480,32 +514,35 @@ fn diagnose_skipping(
         // The best few of each kind (forms of the baseline, physical
         // effects) are cross-validated; the best admissible one by ΔBIC is
         // taken.
-        let is_form =
-            |c: &Candidate| EffectSpec::by_name(&c.effect).is_ok_and(|s| s.kind.is_baseline_form());
         let (mut forms_seen, mut effects_seen) = (0, 0);
         let mut best: Option<(Fit, Heldout)> = None;
         for (fit, cand) in fits.iter_mut() {
-            let form = is_form(cand);
+            let form = fit
+                .space
+                .effects
+                .last()
+                .is_some_and(|e| e.spec.kind.is_baseline_form());
+            // A form may be worse in one fold more than an effect.
+            let folds_worse = opts.max_folds_worse + usize::from(form);
             let seen = if form {
                 &mut forms_seen
             } else {
                 &mut effects_seen
             };
-            if *seen >= opts.cv_top {
-                continue;
+            let mut held = None;
+            if *seen < opts.cv_top {
+                *seen += 1;
+                let h = heldout(fit, &data, &masks, opts);
+                cand.heldout_rmse_kpa = Some(h.overall);
+                cand.heldout_folds_better = Some([h.better_folds(&current_heldout), h.folds.len()]);
+                held = Some(h);
             }
-            *seen += 1;
-            let h = heldout(fit, &data, &masks, opts);
-            let better = h.better_folds(&current_heldout);
-            cand.heldout_rmse_kpa = Some(h.overall);
-            cand.heldout_folds_better = Some([better, h.folds.len()]);
+            cand.refusals = cand.own_refusals(form, noise, folds_worse);
+            let Some(h) = held else { continue };
             let pays = cand.score <= opts.max_delta_bic
                 && h.overall <= current_heldout.overall * (1.0 - opts.min_heldout_gain)
-                && better + opts.max_folds_worse + usize::from(form) >= h.folds.len()
                 && cand.excess_explained >= opts.min_excess_explained
-                && cand.at_bound.is_empty()
-                && cand.indistinct.is_none()
-                && (form || cand.change_rms_kpa >= noise)
+                && cand.refusals.is_empty()
                 && (form || physical < opts.max_effects);
             if pays && best.is_none() {
                 best = Some((fit.clone(), h));
