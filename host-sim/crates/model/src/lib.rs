@@ -297,13 +297,7 @@ impl RigModel {
         }
         let mut history = state.sand;
         let sand = match (&self.sand, history.as_mut()) {
-            (Some(law), Some(h)) => {
-                let rule = self
-                    .built
-                    .iter()
-                    .fold(law.unloading(), |rule, e| e.unloading(rule));
-                law.external_pressure_unloading_kpa(h, diameter, state.sand_depth_mm, rule)
-            }
+            (Some(law), Some(h)) => law.external_pressure_kpa(h, diameter, state.sand_depth_mm),
             _ => 0.0,
         };
         Trial {

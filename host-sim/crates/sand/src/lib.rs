@@ -76,18 +76,6 @@ pub struct Unloading {
 }
 
 impl Unloading {
-    /// The straight unloading line of slope `slope_per_mm` floored at
-    /// `active_coefficient`.
-    pub fn straight(slope_per_mm: f64, active_coefficient: f64) -> Self {
-        Self {
-            slope_per_mm,
-            active_coefficient,
-            curvature: 1.0,
-        }
-    }
-}
-
-impl Unloading {
     /// K at outer diameter `diameter_mm`, advancing `history`;
     /// `loading(D)` is the law's loading-branch K, called only when the
     /// zone is at or past its peak.

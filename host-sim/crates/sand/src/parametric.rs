@@ -38,6 +38,9 @@ pub struct SandParams {
     pub characteristic_diameter_increase_mm: f64,
     /// Unloading slope as a multiple m of the initial loading slope.
     pub unloading_stiffness_ratio: f64,
+    /// [`Unloading::curvature`] of the unloading branch (1: a straight
+    /// line).
+    pub unloading_curvature: f64,
     /// Shape c of the rise, x = ΔD/ΔDc: f = (1 − e^(−(1+c)x))/(1 + c·e^(−(1+c)x)),
     /// which is tanh(x) at c = 1 (the law's own), 1 − e^(−x) at c = 0 (a
     /// more gradual approach to N), steeper above 1; always f'(0) = 1.
@@ -73,6 +76,7 @@ impl SandParams {
             initial_diameter_mm: d0,
             characteristic_diameter_increase_mm: (RISE_DONE_DIAMETER_MM - d0) / 0.95_f64.atanh(),
             unloading_stiffness_ratio: 5.0,
+            unloading_curvature: 1.0,
             rise_shape: 1.0,
         }
     }
@@ -169,25 +173,14 @@ impl ParametricSand {
             / p.characteristic_diameter_increase_mm
     }
 
-    /// [`SandLaw::external_pressure_kpa`] with another unloading rule
-    /// (a model trying another form of the unloading branch).
-    pub fn external_pressure_unloading_kpa(
-        &self,
-        history: &mut SandHistory,
-        diameter_mm: f64,
-        depth_mm: f64,
-        unloading: Unloading,
-    ) -> f64 {
-        let k = unloading.coefficient(history, diameter_mm, |d| self.loading_coefficient(d));
-        k * self.params.vertical_effective_stress_kpa(depth_mm)
-    }
-
-    /// Its unloading rule: slope [`Self::unloading_slope_per_mm`], floor Ka.
+    /// Its unloading rule: slope [`Self::unloading_slope_per_mm`], floor
+    /// Ka, shape [`SandParams::unloading_curvature`].
     pub fn unloading(&self) -> Unloading {
-        Unloading::straight(
-            self.unloading_slope_per_mm(),
-            self.params.active_coefficient,
-        )
+        Unloading {
+            slope_per_mm: self.unloading_slope_per_mm(),
+            active_coefficient: self.params.active_coefficient,
+            curvature: self.params.unloading_curvature,
+        }
     }
 }
 
@@ -205,7 +198,10 @@ impl SandLaw for ParametricSand {
         diameter_mm: f64,
         depth_mm: f64,
     ) -> f64 {
-        self.external_pressure_unloading_kpa(history, diameter_mm, depth_mm, self.unloading())
+        let k = self
+            .unloading()
+            .coefficient(history, diameter_mm, |d| self.loading_coefficient(d));
+        k * self.params.vertical_effective_stress_kpa(depth_mm)
     }
 
     fn describe(&self) -> String {

@@ -6,6 +6,8 @@
 //! Effects act through fixed hooks of one time step, called in this order
 //! (LAMMPS-style: laws interact only through the order):
 //!
+//! 0. [`Effect::sand`]: the sand law's coefficients (another form of its
+//!    rise or of its unloading branch), once when the model is built.
 //! 1. [`Effect::held_volume_ml`]: pumped volume that does not reach the
 //!    actuator at gauge pressure p (a leak's lost volume, a gas bubble's
 //!    compression). The step solves p = P(pump − Σ held(p)) implicitly.
@@ -26,7 +28,7 @@ use serde::Serialize;
 
 use crate::params::ParamSpec;
 use rig::{PressureSource, Rig};
-use sand::{SandParams, Unloading};
+use sand::SandParams;
 
 pub mod leak;
 pub mod line_loss;
@@ -129,12 +131,6 @@ pub trait Effect: Send + Sync + fmt::Debug {
     /// an earlier effect's); applied once when the model is built.
     fn sand(&self, params: SandParams) -> SandParams {
         params
-    }
-
-    /// The sand's unloading rule, given the rule so far (the sand law's,
-    /// or an earlier effect's).
-    fn unloading(&self, unloading: Unloading) -> Unloading {
-        unloading
     }
 
     /// The skin's pressure (kPa) at outer diameter `diameter_mm`, given the

@@ -10,7 +10,7 @@
 use super::{value, Effect, EffectKind, EffectSpec};
 use crate::params::ParamSpec;
 use rig::Rig;
-use sand::Unloading;
+use sand::SandParams;
 
 const PARAMS: [ParamSpec; 2] = [
     ParamSpec {
@@ -69,7 +69,7 @@ pub static SPEC: EffectSpec = EffectSpec {
 pub struct SandUnloading {
     /// Factor f on the law's slope.
     pub slope_factor: f64,
-    /// [`Unloading::curvature`] of the branch.
+    /// [`sand::Unloading::curvature`] of the branch.
     pub curvature: f64,
 }
 
@@ -77,11 +77,11 @@ impl Effect for SandUnloading {
     fn spec(&self) -> &'static EffectSpec {
         &SPEC
     }
-    fn unloading(&self, unloading: Unloading) -> Unloading {
-        Unloading {
-            slope_per_mm: self.slope_factor * unloading.slope_per_mm,
-            curvature: self.curvature,
-            ..unloading
+    fn sand(&self, params: SandParams) -> SandParams {
+        SandParams {
+            unloading_stiffness_ratio: self.slope_factor * params.unloading_stiffness_ratio,
+            unloading_curvature: self.curvature,
+            ..params
         }
     }
 }
