@@ -576,4 +576,87 @@ mod tests {
                 < 1e-12
         );
     }
+
+    #[test]
+    fn rise_shapes_share_the_slope_at_rest_and_the_limit() {
+        let base = ParametricSand::calibrated_to_balloon().params;
+        let (d0, dc) = (
+            base.initial_diameter_mm,
+            base.characteristic_diameter_increase_mm,
+        );
+        let span = base.limit_coefficient - base.at_rest_coefficient;
+        for c in [-0.5, 0.0, 1.0, 3.0] {
+            let sand = ParametricSand {
+                params: SandParams {
+                    rise_shape: c,
+                    ..base
+                },
+            };
+            let k = |d: f64| sand.loading_coefficient(d);
+            assert_eq!(k(d0), base.at_rest_coefficient, "c {c}");
+            let h = 1e-6;
+            let slope = (k(d0 + h) - k(d0)) / h;
+            assert!(
+                (slope - span / dc).abs() < 1e-4 * span / dc,
+                "c {c}: {slope}"
+            );
+            assert!(
+                (k(d0 + 40.0 * dc) - base.limit_coefficient).abs() < 1e-6,
+                "c {c}"
+            );
+        }
+        // c = 0 is the exponential approach; c = 1 is the law's tanh.
+        let at = |c: f64, x: f64| {
+            ParametricSand {
+                params: SandParams {
+                    rise_shape: c,
+                    ..base
+                },
+            }
+            .loading_coefficient(d0 + x * dc)
+        };
+        for x in [0.3f64, 1.0, 2.5] {
+            let exp = base.at_rest_coefficient + span * (1.0 - (-x).exp());
+            let tanh = base.at_rest_coefficient + span * x.tanh();
+            assert!((at(0.0, x) - exp).abs() < 1e-12);
+            assert!((at(1.0, x) - tanh).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn unloading_curves_keep_the_initial_slope_and_the_floor() {
+        let (slope, ka) = (4.0, 0.3);
+        let peak = SandHistory {
+            peak_diameter_mm: 22.0,
+            peak_coefficient: 2.3,
+        };
+        let loading = |_: f64| -> f64 { unreachable!("only unloading is asked") };
+        for c in [-1.0, 0.0, 0.5, 1.0] {
+            let rule = Unloading {
+                slope_per_mm: slope,
+                active_coefficient: ka,
+                curvature: c,
+            };
+            let k = |back: f64| rule.coefficient(&mut peak.clone(), 22.0 - back, loading);
+            let h = 1e-7;
+            assert!(((2.3 - k(h)) / h - slope).abs() < 1e-4 * slope, "c {c}");
+            // Never below the floor, and there (or nearly) far down.
+            for back in [0.1, 0.5, 1.0, 3.0] {
+                assert!(k(back) >= ka && k(back) <= 2.3, "c {c} back {back}");
+            }
+            assert!(k(50.0) - ka < 0.05, "c {c}: {}", k(50.0));
+        }
+        // c = 0: an exponential decay to the floor; c = 1: the straight
+        // line, at the floor from 2.0/4 = 0.5 mm back.
+        let rule = |c: f64| Unloading {
+            slope_per_mm: slope,
+            active_coefficient: ka,
+            curvature: c,
+        };
+        let k0 = rule(0.0).coefficient(&mut peak.clone(), 21.6, loading);
+        assert!((k0 - (ka + 2.0 * (-slope * 0.4 / 2.0f64).exp())).abs() < 1e-12);
+        let k1 = rule(1.0).coefficient(&mut peak.clone(), 21.8, loading);
+        assert!((k1 - (2.3 - slope * 0.2)).abs() < 1e-12);
+        assert_eq!(rule(1.0).coefficient(&mut peak.clone(), 21.4, loading), ka);
+    }
 }
