@@ -83,6 +83,16 @@ fn an_outside_line_loss_is_named_within_15_percent() {
     }
 }
 
+/// The outside rig the ignored studies run: `OUTSIDE_RIG=second` for
+/// [`Truth::second_rig`], else [`Truth::new`].
+fn chosen_rig() -> fn(Vec<Hidden>, u64) -> Truth {
+    if std::env::var("OUTSIDE_RIG").is_ok_and(|r| r == "second") {
+        Truth::second_rig
+    } else {
+        Truth::new
+    }
+}
+
 /// The library effects a folder of `hidden` should be named with: those
 /// the rig can tell apart (a gain cannot be without `[skin]`: the skin's
 /// fitted scale carries it).
@@ -103,12 +113,7 @@ fn outside_confusion_matrix() {
     println!("case | seed | skin | baseline forms selected | effects selected | primary true→fit | final/noise | unexplained | right");
     let (mut right, mut total, mut primaries_ok, mut primaries) = (0, 0, 0, 0);
     let mut worst_ratio: f64 = 0.0;
-    let rig = std::env::var("OUTSIDE_RIG").unwrap_or_default();
-    let make = if rig == "second" {
-        Truth::second_rig
-    } else {
-        Truth::new
-    };
+    let make = chosen_rig();
     for seed in 1..=3 {
         for skin_known in [false, true] {
             for (name, hidden) in cases() {
@@ -179,11 +184,7 @@ fn outside_confusion_matrix() {
 #[test]
 #[ignore = "cargo test -p workbench --test outside_truth signatures -- --ignored --nocapture"]
 fn signatures() {
-    let make = if std::env::var("OUTSIDE_RIG").is_ok_and(|r| r == "second") {
-        Truth::second_rig
-    } else {
-        Truth::new
-    };
+    let make = chosen_rig();
     let read = |t: &Truth| -> Vec<f64> {
         t.runs_csv()
             .lines()
