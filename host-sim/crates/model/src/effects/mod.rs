@@ -95,6 +95,22 @@ pub struct StepContext {
     pub initial_diameter_mm: f64,
 }
 
+/// The step the effects' unit tests start from: free water, at rest, a
+/// line sensor, the paper's bore (670 mm²) and D0 (18.7 mm), t = dt = 0.
+#[cfg(test)]
+pub(crate) fn free_water_context() -> StepContext {
+    StepContext {
+        t_s: 0.0,
+        dt_s: 0.0,
+        pump_flow_ml_s: 0.0,
+        depth_mm: 0.0,
+        absolute_rest_kpa: crate::ATMOSPHERE_KPA,
+        pressure_source: PressureSource::LineSensor,
+        bore_area_mm2: 670.0,
+        initial_diameter_mm: 18.7,
+    }
+}
+
 /// One physical effect with its parameter values (built by
 /// [`EffectSpec::build`]). Every hook defaults to "no effect".
 pub trait Effect: Send + Sync + fmt::Debug {
@@ -342,8 +358,7 @@ mod tests {
             depth_mm: 40.0,
             absolute_rest_kpa: 103.5,
             pressure_source: PressureSource::PistonForce,
-            bore_area_mm2: 670.0,
-            initial_diameter_mm: 18.7,
+            ..free_water_context()
         }
     }
 

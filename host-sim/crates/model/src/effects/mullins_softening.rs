@@ -63,19 +63,14 @@ impl Effect for MullinsSoftening {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rig::PressureSource;
+    use crate::effects::free_water_context;
 
     #[test]
     fn virgin_on_new_ground_softer_below_the_maximum() {
         let ctx = StepContext {
-            t_s: 0.0,
             dt_s: 0.02,
-            pump_flow_ml_s: 0.0,
-            depth_mm: 0.0,
-            absolute_rest_kpa: crate::ATMOSPHERE_KPA,
-            pressure_source: PressureSource::LineSensor,
-            bore_area_mm2: 670.0,
             initial_diameter_mm: 20.0,
+            ..free_water_context()
         };
         let m = MullinsSoftening { fraction: 0.4 };
         let mut st = m.initial_state(&ctx);

@@ -56,20 +56,18 @@ impl Effect for PistonFriction {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::effects::free_water_context;
 
     #[test]
     fn one_newton_on_the_papers_bore() {
         // A = π·29.21²/4 = 670.1 mm²: 1 N → 1.4923 kPa.
         let area = std::f64::consts::PI * 29.21 * 29.21 / 4.0;
         let ctx = StepContext {
-            t_s: 0.0,
             dt_s: 0.02,
             pump_flow_ml_s: 2.0,
-            depth_mm: 0.0,
-            absolute_rest_kpa: crate::ATMOSPHERE_KPA,
             pressure_source: PressureSource::PistonForce,
             bore_area_mm2: area,
-            initial_diameter_mm: 18.7,
+            ..free_water_context()
         };
         let f = PistonFriction { friction_n: 1.0 };
         assert!((f.reading_kpa(&ctx, 0.0, 0.0) - 1.4923).abs() < 1e-4);

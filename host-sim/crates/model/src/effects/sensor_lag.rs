@@ -84,9 +84,9 @@ impl Effect for SensorLag {
 #[cfg(test)]
 mod tests {
     use super::SensorLag;
-    use crate::effects::{Effect, EffectInstance, EffectState, StepContext};
+    use crate::effects::{free_water_context, Effect, EffectInstance, EffectState, StepContext};
     use crate::{Params, RigModel};
-    use rig::{PressureSource, Rig};
+    use rig::Rig;
 
     /// Pump volume (mL) of a triangle: up at 2.5 mL/s to 4 mL, then down.
     fn triangle_ml(t_s: f64) -> f64 {
@@ -138,11 +138,7 @@ mod tests {
             t_s: 1.0,
             dt_s,
             pump_flow_ml_s: flow_ml_s,
-            depth_mm: 0.0,
-            absolute_rest_kpa: crate::ATMOSPHERE_KPA,
-            pressure_source: PressureSource::LineSensor,
-            bore_area_mm2: 670.0,
-            initial_diameter_mm: 18.7,
+            ..free_water_context()
         }
     }
 

@@ -77,20 +77,11 @@ impl Effect for SkinViscoelasticity {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rig::PressureSource;
+    use crate::effects::free_water_context;
 
     #[test]
     fn step_then_relaxation_is_exponential() {
-        let mut ctx = StepContext {
-            t_s: 0.0,
-            dt_s: 0.0,
-            pump_flow_ml_s: 0.0,
-            depth_mm: 0.0,
-            absolute_rest_kpa: crate::ATMOSPHERE_KPA,
-            pressure_source: PressureSource::LineSensor,
-            bore_area_mm2: 670.0,
-            initial_diameter_mm: 18.7,
-        };
+        let mut ctx = free_water_context();
         let v = SkinViscoelasticity {
             fraction: 0.5,
             tau_s: 2.0,

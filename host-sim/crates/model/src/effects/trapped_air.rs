@@ -52,20 +52,11 @@ impl Effect for TrappedAir {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rig::PressureSource;
+    use crate::effects::free_water_context;
 
     #[test]
     fn boyle_at_twice_the_absolute_pressure_halves_the_bubble() {
-        let ctx = StepContext {
-            t_s: 0.0,
-            dt_s: 0.0,
-            pump_flow_ml_s: 0.0,
-            depth_mm: 0.0,
-            absolute_rest_kpa: crate::ATMOSPHERE_KPA,
-            pressure_source: PressureSource::LineSensor,
-            bore_area_mm2: 670.0,
-            initial_diameter_mm: 18.7,
-        };
+        let ctx = free_water_context();
         let air = TrappedAir { gas_volume_ml: 2.0 };
         let mut st = [0.0; 2];
         assert!((air.held_volume_ml(&mut st, &ctx, crate::ATMOSPHERE_KPA) - 1.0).abs() < 1e-12);
