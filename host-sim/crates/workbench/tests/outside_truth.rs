@@ -93,6 +93,19 @@ fn chosen_rig() -> fn(Vec<Hidden>, u64) -> Truth {
     }
 }
 
+/// The cases the ignored matrix runs: `OUTSIDE_CASES=none,leak` for a
+/// subset (by name), else every case.
+fn chosen_cases() -> Vec<(&'static str, Vec<Hidden>)> {
+    let only = std::env::var("OUTSIDE_CASES").ok();
+    cases()
+        .into_iter()
+        .filter(|(name, _)| {
+            only.as_ref()
+                .is_none_or(|o| o.split(',').any(|c| c == *name))
+        })
+        .collect()
+}
+
 /// The library effects a folder of `hidden` should be named with: those
 /// the rig can tell apart (a gain cannot be without `[skin]`: the skin's
 /// fitted scale carries it).
@@ -108,7 +121,7 @@ fn expected(hidden: &[Hidden], skin_known: bool) -> Vec<&'static str> {
 }
 
 #[test]
-#[ignore = "the full matrix: [OUTSIDE_RIG=second] cargo test -p workbench --test outside_truth -- --ignored --nocapture"]
+#[ignore = "the full matrix: [OUTSIDE_RIG=second] [OUTSIDE_CASES=none,leak] [OUTSIDE_KEEP=DIR] cargo test -p workbench --test outside_truth -- --ignored --nocapture"]
 fn outside_confusion_matrix() {
     println!("case | seed | skin | baseline forms selected | effects selected | primary true→fit | final/noise | unexplained | right");
     let (mut right, mut total, mut primaries_ok, mut primaries) = (0, 0, 0, 0);
@@ -116,9 +129,17 @@ fn outside_confusion_matrix() {
     let make = chosen_rig();
     for seed in 1..=3 {
         for skin_known in [false, true] {
-            for (name, hidden) in cases() {
+            for (name, hidden) in chosen_cases() {
                 let mut truth = make(hidden.clone(), seed);
                 truth.skin_known = skin_known;
+                if let Ok(keep) = std::env::var("OUTSIDE_KEEP") {
+                    let skin = if skin_known { "skin" } else { "noskin" };
+                    let slug: String = name
+                        .chars()
+                        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                        .collect();
+                    truth.write(&std::path::Path::new(&keep).join(format!("{slug}-{seed}-{skin}")));
+                }
                 let (_, d) = diagnosed(&truth);
                 let (forms, effects): (Vec<&String>, Vec<&String>) =
                     d.selected.iter().partition(|s| is_baseline_form(s));
