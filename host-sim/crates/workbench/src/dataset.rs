@@ -66,7 +66,14 @@ impl Dataset {
     /// (the model steps from sample to sample, and coarser steps misstate
     /// its dynamics); when that cap binds, a subset of whole runs is kept
     /// instead, taken in turn from each depth and spread over each depth's
-    /// runs, at least one per depth.
+    /// runs, at least one per depth. A kept run still longer than its
+    /// share of the budget (a run of hours) is fitted on its opening
+    /// stretch at that stride: only there is the model's state known (the
+    /// run starts at rest), whereas a window later in the run would need
+    /// the whole run stepped through to carry a leak's lost volume or the
+    /// skin's memory. The rest of the run is predicted from that fit and
+    /// scored with every other sample, so a run that changes later shows
+    /// as a residual, not as a different fit.
     pub fn thinned(&self, max_samples: usize) -> Dataset {
         let n = self.len();
         if n <= max_samples || max_samples == 0 {
@@ -79,19 +86,34 @@ impl Dataset {
         } else {
             self.spread_runs(max_samples, k)
         };
-        let keep = |r: &Run, i: usize| i.is_multiple_of(k) || i + 1 == r.samples.len();
-        let runs = chosen
+        let size = |j: usize| self.runs[j].samples.len().div_ceil(k) + 1;
+        let total: usize = chosen.iter().map(|&j| size(j)).sum();
+        let share = if total > max_samples {
+            max_samples / chosen.len().max(1)
+        } else {
+            usize::MAX
+        };
+        let plans: Vec<Vec<usize>> = chosen
             .iter()
             .map(|&j| {
+                let len = self.runs[j].samples.len();
+                let end = if size(j) > share {
+                    ((share.max(2) - 1) * k + 1).min(len)
+                } else {
+                    len
+                };
+                (0..end)
+                    .filter(|&i| i.is_multiple_of(k) || i + 1 == end)
+                    .collect()
+            })
+            .collect();
+        let runs = chosen
+            .iter()
+            .zip(&plans)
+            .map(|(&j, plan)| {
                 let r = &self.runs[j];
                 Run {
-                    samples: r
-                        .samples
-                        .iter()
-                        .enumerate()
-                        .filter(|(i, _)| keep(r, *i))
-                        .map(|(_, s)| s.clone())
-                        .collect(),
+                    samples: plan.iter().map(|&i| r.samples[i].clone()).collect(),
                     ..r.clone()
                 }
             })
@@ -99,11 +121,10 @@ impl Dataset {
         let mut thin = Self::from_runs(runs);
         thin.skip = chosen
             .iter()
-            .flat_map(|&j| {
-                let (r, a) = (&self.runs[j], self.offsets[j]);
-                (0..r.samples.len())
-                    .filter(move |&i| keep(r, i))
-                    .map(move |i| self.skip[a + i])
+            .zip(&plans)
+            .flat_map(|(&j, plan)| {
+                let a = self.offsets[j];
+                plan.iter().map(move |&i| self.skip[a + i])
             })
             .collect();
         thin
@@ -230,4 +251,58 @@ fn spread_order(items: &[usize]) -> Vec<usize> {
         order.push(items[next]);
     }
     order
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rig::Sample;
+
+    fn run(id: &str, depth_mm: f64, n: usize, dt_s: f64) -> Run {
+        Run {
+            id: id.into(),
+            depth_mm,
+            samples: (0..n)
+                .map(|i| Sample {
+                    t_s: i as f64 * dt_s,
+                    volume_ml: 0.0,
+                    pressure_kpa: i as f64,
+                    diameter_mm: None,
+                    extra: Vec::new(),
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn a_run_longer_than_its_share_is_fitted_on_its_opening_stretch() {
+        // At 10 ms the stride is capped at 2 (20 ms): every run is kept,
+        // the hour-long one cut to its opening, within the budget.
+        let mut data = Dataset::from_runs(vec![
+            run("short0", 0.0, 600, 0.01),
+            run("hour", 50.0, 360_000, 0.01),
+            run("short120", 120.0, 600, 0.01),
+        ]);
+        data.skip[600 + 4] = true;
+        let thin = data.thinned(MAX_FIT_SAMPLES);
+        let ids: Vec<&str> = thin.runs.iter().map(|r| r.id.as_str()).collect();
+        assert_eq!(ids, ["short0", "hour", "short120"]);
+        assert!(thin.len() <= MAX_FIT_SAMPLES, "{}", thin.len());
+        let hour = &thin.runs[1].samples;
+        let t: Vec<f64> = hour.iter().map(|s| s.t_s).collect();
+        assert_eq!(t[0], 0.0);
+        assert!(t.windows(2).all(|w| (w[1] - w[0] - 0.02).abs() < 1e-9));
+        assert!(hour.len() >= MAX_FIT_SAMPLES / 3 - 1, "{}", hour.len());
+        // The spike flag travels with its sample.
+        let at = thin.offsets[1] + 2;
+        assert!(thin.skip[at] && thin.skip.iter().filter(|s| **s).count() == 1);
+        // Short runs keep every second sample and their last.
+        assert_eq!(thin.runs[0].samples.len(), 301);
+    }
+
+    #[test]
+    fn folders_within_the_budget_are_not_thinned() {
+        let data = Dataset::from_runs(vec![run("a", 0.0, 1000, 0.01), run("b", 40.0, 1000, 0.01)]);
+        assert_eq!(data.thinned(MAX_FIT_SAMPLES).len(), 2000);
+    }
 }
