@@ -15,11 +15,17 @@
 //!   over `embedded-hal` traits;
 //! - [`protocol`]: framed, checksummed commands and telemetry over the
 //!   virtual COM port;
+//! - [`store`]: an uploaded table and the sensor's zero in flash, over
+//!   any `embedded-storage` NOR flash;
 //! - [`replay`]: the format of recorded emulator runs and the checker that
 //!   replays them through the controller (host-sim records, the QEMU build
 //!   and the host check).
 //!
-//! The embassy glue lives in `board` (only built for the STM32 target).
+//! The board's tasks are in `tasks` (feature `tasks`: generic over the
+//! embedded-hal, embedded-io-async and embedded-storage traits, so the
+//! board and host-sim's virtual board run the same code); the embassy glue
+//! with the concrete STM32 types lives in `board` (only built for the STM32
+//! target).
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 #![cfg_attr(not(all(target_os = "none", feature = "board")), forbid(unsafe_code))]
@@ -29,7 +35,11 @@ pub mod drivers;
 pub mod protocol;
 pub mod replay;
 pub mod selftest;
+pub mod store;
 pub mod table;
+
+#[cfg(feature = "tasks")]
+pub mod tasks;
 
 #[cfg(all(target_os = "none", feature = "board"))]
 pub mod board;

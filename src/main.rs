@@ -18,19 +18,28 @@ fn main() {
 mod firmware {
     use defmt_rtt as _;
     use embassy_executor::Spawner;
+    use embassy_stm32::flash::Flash;
     use embassy_stm32::gpio::{Input, Level, Output, Pull, Speed};
     use embassy_stm32::time::Hertz;
     use embassy_stm32::wdg::IndependentWatchdog;
     use embassy_stm32::{bind_interrupts, dma, i2c, peripherals, usart, Config};
+    use embassy_sync::mutex::Mutex;
     use panic_probe as _;
     use static_cell::StaticCell;
-    use urechis::board::control::{control_task, ControlOutputs, WATCHDOG_TIMEOUT_US};
-    use urechis::board::link::{rx_task, tx_task, BAUD_RATE, RX_RING_BYTES};
-    use urechis::board::pump::{pump_task, Pump};
-    use urechis::board::sensor::{sensor_task, Sensor, MODEL, OSR};
+    use urechis::board::{
+        control_task, pump_task, rx_task, sensor_task, tx_task, BoardFlash, BoardStore,
+        ControlOutputs, Pump, Sensor, RX_RING_BYTES, SHARED, WATCHDOG_TIMEOUT_US,
+    };
     use urechis::controller::{Controller, Fault};
     use urechis::drivers::pump::{PumpConfig, PumpPins};
+    use urechis::protocol::{Hello, TableSource};
+    use urechis::store::{Store, BOARD_LAYOUT};
     use urechis::table::generated::TABLE;
+    use urechis::table::image::TableBuf;
+    use urechis::tasks::control::BootInfo;
+    use urechis::tasks::link::BAUD_RATE;
+    use urechis::tasks::sensor::{MODEL, OSR};
+    use urechis::tasks::stored_table;
 
     // DMA streams per RM0390 table 28: I2C1 RX stream 0 / TX stream 7,
     // USART2 RX stream 5 / TX stream 6 (all DMA1, channel chosen by the HAL).
@@ -82,17 +91,36 @@ mod firmware {
             csr.porrstf()
         );
 
-        // Table: a bad one is logged here; the controller refuses `Start`.
-        match TABLE.verify() {
+        // Table: an uploaded one from flash if it verifies, else the
+        // compiled-in one (a bad one is logged; the controller refuses
+        // `Start`). The zero: the last tare's, from flash.
+        let mut store = Store::new(BoardFlash(Flash::new_blocking(p.FLASH)), BOARD_LAYOUT);
+        let (uploaded, stored) = stored_table(&mut store);
+        static TABLE_BUF: StaticCell<TableBuf> = StaticCell::new();
+        let (table, table_source) = match uploaded {
+            Some(buf) => (TABLE_BUF.init(buf).table(), TableSource::Uploaded),
+            None => (TABLE, TableSource::CompiledIn),
+        };
+        match table.verify() {
             Ok(()) => defmt::info!(
                 "table: {} depths x {} diameters, CRC {=u32:#010x}, placeholder {}",
-                TABLE.depths_mm.len(),
-                TABLE.diameters_mm.len(),
-                TABLE.checksum,
-                TABLE.placeholder
+                table.depths_mm.len(),
+                table.diameters_mm.len(),
+                table.checksum,
+                table.placeholder
             ),
             Err(e) => defmt::error!("table: verification failed ({}): the cycle cannot start", e),
         }
+        match store.load_zero() {
+            Ok(Some(zero)) => {
+                defmt::info!("sensor: zero {} kPa absolute, from the last tare", zero);
+                SHARED.set_zero_kpa(Some(zero));
+            }
+            Ok(None) => defmt::warn!("sensor: no zero stored: tare before the first start"),
+            Err(e) => defmt::error!("sensor: zero unreadable ({}): tare again", e),
+        }
+        static STORE: StaticCell<BoardStore> = StaticCell::new();
+        let store: &'static BoardStore = STORE.init(Mutex::new(store));
 
         // Safe levels first: valve de-energised (open, vented), advance off,
         // stepper driver disabled (ENABLE is active low), STEP low.
@@ -141,7 +169,7 @@ mod firmware {
         static RX_RING: StaticCell<[u8; RX_RING_BYTES]> = StaticCell::new();
         let rx = rx.into_ring_buffered(RX_RING.init([0; RX_RING_BYTES]));
 
-        let mut controller = Controller::with_default_params(TABLE);
+        let mut controller = Controller::with_default_params(table);
         if csr.wdgrstf() {
             // The last run's control loop starved the watchdog: come back up
             // latched in the safe state, not in Idle.
@@ -155,10 +183,14 @@ mod firmware {
 
         // Each task fits its pool of one: spawning can only fail on a second
         // spawn of the same task, which this function never does.
+        let boot = BootInfo {
+            table_source,
+            stored_table: stored,
+        };
         spawner.spawn(defmt::unwrap!(pump_task(pump)));
-        spawner.spawn(defmt::unwrap!(sensor_task(sensor)));
-        spawner.spawn(defmt::unwrap!(tx_task(tx)));
-        spawner.spawn(defmt::unwrap!(rx_task(rx)));
-        spawner.spawn(defmt::unwrap!(control_task(controller, outputs)));
+        spawner.spawn(defmt::unwrap!(sensor_task(sensor, store)));
+        spawner.spawn(defmt::unwrap!(tx_task(tx, Hello::new(&table))));
+        spawner.spawn(defmt::unwrap!(rx_task(rx, store)));
+        spawner.spawn(defmt::unwrap!(control_task(controller, outputs, boot)));
     }
 }

@@ -14,7 +14,8 @@
 //! # Format (little-endian), version [`VERSION`]
 //!
 //! ```text
-//! header: "URRP" · u16 version · u32 table checksum · u32 steps · u8 name length · name
+//! header: "URRP" · u16 version · u32 table checksum · f32 pressure zero (absolute kPa, NaN = none)
+//!         · u32 steps · u8 name length · name
 //! step:   u8 in-flags
 //!         [u32 now_ms]            unless IN_NEXT_PERIOD (= previous + CONTROL_PERIOD_MS)
 //!         [f32 pressure_kpa]      when the sample is a Reading
@@ -39,7 +40,7 @@ use crate::table::{Table, CHECKSUM_ALGORITHM};
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"URRP";
 /// Format version.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 
 const SAMPLE_MASK: u8 = 0b11;
 const SAMPLE_READING: u8 = 0;
@@ -104,9 +105,11 @@ fn fold_telemetry(digest: u32, outputs: &Outputs) -> Result<u32, EncodeError> {
 
 impl Recorder {
     /// The header for `steps` steps of run `name` against table checksum
-    /// `table_checksum`.
+    /// `table_checksum`, the controller set to pressure zero
+    /// `pressure_zero_kpa` (absolute kPa; NaN for none) at boot.
     pub fn header(
         table_checksum: u32,
+        pressure_zero_kpa: f32,
         steps: u32,
         name: &str,
         out: &mut impl FnMut(&[u8]),
@@ -115,6 +118,7 @@ impl Recorder {
         out(&MAGIC);
         out(&VERSION.to_le_bytes());
         out(&table_checksum.to_le_bytes());
+        out(&pressure_zero_kpa.to_bits().to_le_bytes());
         out(&steps.to_le_bytes());
         out(&[len]);
         out(name.as_bytes());
@@ -350,12 +354,15 @@ impl core::fmt::Display for ReplayError {
 }
 
 /// What a replay file says about itself.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Header<'a> {
     /// Scenario name.
     pub name: &'a str,
     /// Checksum of the table it was recorded against.
     pub table_checksum: u32,
+    /// Pressure zero the controller was given at boot (absolute kPa; NaN
+    /// for none).
+    pub pressure_zero_kpa: f32,
     /// Steps recorded.
     pub steps: u32,
 }
@@ -433,12 +440,14 @@ fn read_header<'a>(c: &mut Cursor<'a>) -> Result<Header<'a>, ReplayError> {
         return Err(ReplayError::Version(version));
     }
     let table_checksum = c.u32()?;
+    let pressure_zero_kpa = f32::from_bits(c.u32()?);
     let steps = c.u32()?;
     let len = usize::from(c.u8()?);
     let name = core::str::from_utf8(c.take(len)?).map_err(|_| ReplayError::BadMagic)?;
     Ok(Header {
         name,
         table_checksum,
+        pressure_zero_kpa,
         steps,
     })
 }
@@ -456,6 +465,7 @@ pub fn check(bytes: &[u8], table: Table<'_>) -> Result<Summary, ReplayError> {
         });
     }
     let mut ctrl = Controller::with_default_params(table);
+    ctrl.set_pressure_zero((!head.pressure_zero_kpa.is_nan()).then_some(head.pressure_zero_kpa));
     let mut now_ms = 0u32;
     let mut volume_bits = 0u32;
     let mut rate_bits = 0u32;

@@ -22,7 +22,7 @@ use crate::controller::{
     detection_bound_ms, Command, CommandError, Controller, EndStops, ExpandEnd, ExpansionZone,
     Fault, Inputs, Outputs, ParamField, Params, PressureSample, PumpCommand, State,
     CONTROL_OVERRUN_LIMIT_MS, CONTROL_PERIOD_MS, PLATEAU_CONFIRM_SAMPLES, PLATEAU_WINDOW_SAMPLES,
-    RANGES,
+    PRESSURE_ZERO_RANGE_KPA, RANGES,
 };
 use crate::table::{Table, TableError, CHECKSUM_ALGORITHM, FORMAT_VERSION};
 
@@ -104,7 +104,22 @@ pub const SCENARIOS: &[Scenario] = &[
         name: "fault_control_overrun",
         run: fault_control_overrun,
     },
+    Scenario {
+        name: "fault_link_loss",
+        run: fault_link_loss,
+    },
+    Scenario {
+        name: "pressure_zero_gates_start",
+        run: pressure_zero_gates_start,
+    },
 ];
+
+/// The bench's host sends a `Heartbeat` this often when it has no other
+/// command (ms): four per default link timeout.
+pub const HEARTBEAT_MS: u32 = 500;
+
+/// The gauge zero the bench's sensor was tared at (absolute kPa).
+pub const BENCH_ZERO_KPA: f32 = 101.325;
 
 /// D0 of the test actuator (mm), the paper's body diameter.
 pub const D0_MM: f32 = 18.7;
@@ -335,23 +350,39 @@ pub struct Bench<'t> {
     pub now_ms: u32,
     /// Outputs of the last step.
     pub last: Option<Outputs>,
+    /// The host is connected: a step without a command sends a
+    /// `Heartbeat` every [`HEARTBEAT_MS`].
+    pub heartbeat: bool,
+    /// Time of the host's last frame (ms).
+    last_host_ms: u32,
 }
 
 impl<'t> Bench<'t> {
-    /// A bench at t = 1000 ms with a fresh controller; invalid `params`
-    /// are refused as the controller refuses them.
+    /// A bench at t = 1000 ms with a fresh controller, tared at
+    /// [`BENCH_ZERO_KPA`], and a connected host; invalid `params` are
+    /// refused as the controller refuses them.
     pub fn new(params: Params, table: Table<'t>, plant: Plant) -> Result<Self, &'static str> {
+        let mut ctrl = Controller::new(params, table).map_err(|_| "bench params refused")?;
+        ctrl.set_pressure_zero(Some(BENCH_ZERO_KPA));
         Ok(Self {
-            ctrl: Controller::new(params, table).map_err(|_| "bench params refused")?,
+            ctrl,
             plant,
             now_ms: 1000,
             last: None,
+            heartbeat: true,
+            last_host_ms: 1000,
         })
     }
 
-    /// One control step with an optional command; the plant then runs one
-    /// period under the outputs.
+    /// One control step with an optional command (a `Heartbeat` every
+    /// [`HEARTBEAT_MS`] when there is none and the host is connected); the
+    /// plant then runs one period under the outputs.
     pub fn step(&mut self, command: Option<Command>) -> Outputs {
+        let due = self.now_ms.wrapping_sub(self.last_host_ms) >= HEARTBEAT_MS;
+        let command = command.or((self.heartbeat && due).then_some(Command::Heartbeat));
+        if command.is_some() {
+            self.last_host_ms = self.now_ms;
+        }
         let inputs = Inputs {
             now_ms: self.now_ms,
             pressure: self.plant.sample(self.now_ms),
@@ -1156,6 +1187,107 @@ fn fault_control_overrun() -> Result<(), &'static str> {
     )?;
     bench.now_ms = bench.last_step_ms().wrapping_add(CONTROL_PERIOD_MS);
     expect_latched(&mut bench, false, |_| {})
+}
+
+fn fault_link_loss() -> Result<(), &'static str> {
+    let store = slow_store();
+    let mut bench = expanding(&store, Params::DEFAULT, 21.0)?;
+    // The host's last frame: a heartbeat now, then silence.
+    let out = bench.step(Some(Command::Heartbeat));
+    ensure(out.command_result == Some(Ok(())), "Heartbeat refused")?;
+    let healthy_ms = bench.last_step_ms();
+    bench.heartbeat = false;
+    let steps = Params::DEFAULT.link_timeout_ms / CONTROL_PERIOD_MS + 2;
+    let out = expect_fault(&mut bench, Fault::LinkLoss, healthy_ms, steps)?;
+    ensure(
+        out.telemetry.t_ms.wrapping_sub(healthy_ms) > Params::DEFAULT.link_timeout_ms,
+        "link loss before its timeout",
+    )?;
+    ensure(
+        bench.ctrl.last_fault().map(|(f, _)| f) == Some(Fault::LinkLoss),
+        "last fault not kept",
+    )?;
+    // The host comes back: a heartbeat is accepted in Fault, and the
+    // fault latches until Reset, which clears it (the cause is gone).
+    bench.heartbeat = true;
+    expect_latched(&mut bench, false, |_| {})?;
+    ensure(
+        bench.ctrl.last_fault().map(|(f, _)| f) == Some(Fault::LinkLoss),
+        "last fault forgotten by Reset",
+    )?;
+    // A cycle without a limit needs the watch; with a limit it may go
+    // without a host, and then runs its cycles to the end unfed.
+    let unwatched = Params {
+        link_timeout_ms: 0,
+        ..Params::DEFAULT
+    };
+    let out = bench.step(Some(Command::SetParams(unwatched)));
+    ensure(
+        out.command_result
+            == Some(Err(CommandError::InvalidParams(
+                crate::controller::ParamError {
+                    field: ParamField::LinkTimeoutMs,
+                },
+            ))),
+        "a cycle without limit or link watch was accepted",
+    )?;
+    let bounded = Params {
+        cycles: 1,
+        ..unwatched
+    };
+    let out = bench.step(Some(Command::SetParams(bounded)));
+    ensure(out.command_result == Some(Ok(())), "bounded run refused")?;
+    bench.heartbeat = false;
+    bench.start()?;
+    let out = bench.run_until(
+        2_000,
+        |o, _| o.state == State::Idle || o.state == State::Fault,
+        "bounded run never ended",
+    )?;
+    ensure(
+        out.state == State::Idle && bench.ctrl.cycle() == 1,
+        "bounded run without host did not complete",
+    )
+}
+
+fn pressure_zero_gates_start() -> Result<(), &'static str> {
+    let store = slow_store();
+    let law = SandLaw {
+        rise_mm: SLOW_RISE_MM,
+    };
+    let mut bench = Bench::new(Params::DEFAULT, store.table(), Plant::new(law, 40.0))?;
+    for _ in 0..3 {
+        bench.step(None);
+    }
+    let (lo, hi) = PRESSURE_ZERO_RANGE_KPA;
+    for zero in [None, Some(lo - 0.5), Some(hi + 0.5), Some(f32::NAN)] {
+        bench.ctrl.set_pressure_zero(zero);
+        let out = bench.step(Some(Command::Start));
+        ensure(
+            out.command_result == Some(Err(CommandError::NoPressureZero)),
+            "Start accepted without a zero in range",
+        )?;
+        ensure(out.state == State::Idle, "refused Start left Idle")?;
+        ensure(
+            out.telemetry.pressure_zero_kpa.to_bits() == zero.unwrap_or(f32::NAN).to_bits(),
+            "telemetry does not carry the zero in force",
+        )?;
+    }
+    for zero in [lo, BENCH_ZERO_KPA, hi] {
+        bench.ctrl.set_pressure_zero(Some(zero));
+        let out = bench.step(Some(Command::Start));
+        ensure(
+            out.command_result == Some(Ok(())),
+            "Start refused with a zero in range",
+        )?;
+        ensure(
+            out.telemetry.pressure_zero_kpa == zero,
+            "telemetry does not carry the zero",
+        )?;
+        bench.step(Some(Command::Stop));
+        bench.run_until(500, |o, _| o.state == State::Idle, "stop never idled")?;
+    }
+    Ok(())
 }
 
 /// CRC-32 over every output of a three-cycle run at 40 mm (all fields,

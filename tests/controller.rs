@@ -46,6 +46,8 @@ scenario_tests!(
     fault_volume_limit,
     fault_diameter_mismatch,
     fault_control_overrun,
+    fault_link_loss,
+    pressure_zero_gates_start,
 );
 
 #[test]
@@ -274,6 +276,7 @@ fn defaults_run_clean_cycles_on_the_generated_table() {
             ..Params::DEFAULT
         };
         let mut ctrl = Controller::new(params, table).unwrap();
+        ctrl.set_pressure_zero(Some(selftest::BENCH_ZERO_KPA));
         let (mut pump_ml, mut now_ms, mut dither) = (0.0_f32, 0_u32, 1.0_f32);
         let mut max_mm = 0.0_f32;
         let mut ends = Vec::new();
@@ -287,7 +290,11 @@ fn defaults_run_clean_cycles_on_the_generated_table() {
                 pressure: reading(table.pressure_kpa(d, depth_mm) + 0.002 * dither, now_ms),
                 pump_volume_ml: pump_ml,
                 end_stops: EndStops::default(),
-                command: (k == 2).then_some(Command::Start),
+                command: if k == 2 {
+                    Some(Command::Start)
+                } else {
+                    (k % 50 == 0).then_some(Command::Heartbeat)
+                },
             };
             let out = ctrl.step(&inputs);
             assert_ne!(

@@ -159,9 +159,19 @@ fn inputs_for(start_ms: u32, events: &[Event]) -> Vec<Inputs> {
     let zone = ExpansionZone::of(&TABLE);
     let (mut now_ms, mut pump_ml) = (start_ms, 0.0_f32);
     let mut ctrl = Controller::with_default_params(TABLE);
+    ctrl.set_pressure_zero(Some(urechis::selftest::BENCH_ZERO_KPA));
     let mut out = Vec::with_capacity(events.len());
+    // The host is connected: with no other command it sends a heartbeat
+    // every HEARTBEAT_MS (sequences with a link loss come from the gaps
+    // in time the events themselves make).
+    let mut last_host_ms = start_ms;
     for e in events {
         now_ms = now_ms.wrapping_add(e.dt_ms);
+        let due = now_ms.wrapping_sub(last_host_ms) >= urechis::selftest::HEARTBEAT_MS;
+        let command = e.command.or(due.then_some(Command::Heartbeat));
+        if command.is_some() {
+            last_host_ms = now_ms;
+        }
         let depth_mm = ctrl.params().depth_mm;
         let pressure = match e.pressure {
             Pressure::Plant(offset) => PressureSample::Reading {
@@ -180,7 +190,7 @@ fn inputs_for(start_ms: u32, events: &[Event]) -> Vec<Inputs> {
             pressure,
             pump_volume_ml: e.volume.unwrap_or(pump_ml),
             end_stops: e.end_stops,
-            command: e.command,
+            command,
         };
         // The plant follows the controller it is driving.
         let o = ctrl.step(&inputs);
@@ -195,7 +205,9 @@ fn inputs_for(start_ms: u32, events: &[Event]) -> Vec<Inputs> {
 fn check_sequence(start_ms: u32, events: &[Event]) -> Result<(), TestCaseError> {
     let inputs = inputs_for(start_ms, events);
     let mut ctrl = Controller::with_default_params(TABLE);
+    ctrl.set_pressure_zero(Some(urechis::selftest::BENCH_ZERO_KPA));
     let mut replay = Controller::with_default_params(TABLE);
+    replay.set_pressure_zero(Some(urechis::selftest::BENCH_ZERO_KPA));
     let mut prev_state = ctrl.state();
     let mut prev_now: Option<u32> = None;
     for (k, i) in inputs.iter().enumerate() {
@@ -301,6 +313,7 @@ fn random_sequences_reach_every_state() {
     for _ in 0..200 {
         let events = strategy.new_tree(&mut runner).unwrap().current();
         let mut ctrl = Controller::with_default_params(TABLE);
+        ctrl.set_pressure_zero(Some(urechis::selftest::BENCH_ZERO_KPA));
         let mut prev = State::Idle;
         for i in inputs_for(0, &events) {
             let out = ctrl.step(&i);

@@ -9,9 +9,11 @@ use proptest::prelude::*;
 use urechis::controller::{CommandError, Fault, ParamError, ParamField, Params, State, Telemetry};
 use urechis::protocol::{
     decode_frame, encode_device, encode_host, DeviceDecoder, DeviceMessage, FirmwareVersion,
-    FrameDecoder, FrameError, Hello, HostCommand, HostDecoder, HostMessage, NackReason,
-    ProtocolError, CRC, MAX_ENCODED, MAX_FRAME, MAX_PAYLOAD, PROTOCOL_VERSION,
+    FrameDecoder, FrameError, Hello, HostCommand, HostDecoder, HostMessage, Info, NackReason,
+    ProtocolError, StoredTable, TableSource, TareError, UploadError, CRC, MAX_ENCODED, MAX_FRAME,
+    MAX_PAYLOAD, PROTOCOL_VERSION, TABLE_CHUNK_BYTES,
 };
+use urechis::table::image::ImageError;
 use urechis::table::TableError;
 
 // ---------------------------------------------------------------------------
@@ -148,10 +150,43 @@ fn sample() -> Telemetry {
         diameter_volume_mm: 19.0,
         diameter_table_mm: 19.25,
         cycle: 2,
+        pressure_zero_kpa: 101.25,
     }
 }
 
-const COMMAND_ERRORS: [CommandError; 11] = [
+fn info() -> Info {
+    let table = urechis::table::generated::TABLE;
+    Info {
+        protocol_version: PROTOCOL_VERSION,
+        firmware_version: FirmwareVersion::CURRENT,
+        table_format_version: table.format_version,
+        table_checksum: table.checksum,
+        table_placeholder: table.placeholder,
+        table_source: TableSource::Uploaded,
+        stored_table: StoredTable::Rejected(ImageError::Table(TableError::Checksum)),
+        pressure_zero_kpa: f32::NAN,
+        state: State::Fault,
+        fault: Some(Fault::LinkLoss),
+        last_fault: Some(Fault::LinkLoss),
+        last_fault_ms: u32::MAX,
+        uptime_ms: u32::MAX,
+        frame_errors: u32::MAX,
+        telemetry_dropped: u32::MAX,
+    }
+}
+
+fn full_chunk() -> HostCommand {
+    let mut data = heapless::Vec::new();
+    for i in 0..TABLE_CHUNK_BYTES {
+        let _ = data.push(i as u8);
+    }
+    HostCommand::TableChunk {
+        offset: u32::MAX,
+        data,
+    }
+}
+
+const COMMAND_ERRORS: [CommandError; 12] = [
     CommandError::Busy,
     CommandError::Faulted,
     CommandError::BadTable(TableError::Version),
@@ -167,6 +202,7 @@ const COMMAND_ERRORS: [CommandError; 11] = [
         field: ParamField::DiameterMismatchMm,
     }),
     CommandError::CauseActive,
+    CommandError::NoPressureZero,
 ];
 
 const FRAME_ERRORS: [FrameError; 6] = [
@@ -187,6 +223,15 @@ fn every_host_message() -> Vec<HostMessage> {
         HostCommand::SetParams(paper_params()),
         HostCommand::SetParams(worst_params()),
         HostCommand::Ping,
+        HostCommand::Heartbeat,
+        HostCommand::Tare,
+        HostCommand::GetInfo,
+        HostCommand::TableBegin {
+            len_bytes: u32::MAX,
+            crc32: u32::MAX,
+        },
+        full_chunk(),
+        HostCommand::TableCommit,
     ]
     .into_iter()
     .enumerate()
@@ -226,6 +271,20 @@ fn every_device_message() -> Vec<DeviceMessage> {
     }
     for e in FRAME_ERRORS {
         all.push(DeviceMessage::frame_reject(e));
+    }
+    all.push(DeviceMessage::Info {
+        seq: 1,
+        info: info(),
+    });
+    for reason in [
+        NackReason::Upload(UploadError::Image(ImageError::Table(TableError::Shape))),
+        NackReason::Upload(UploadError::Crc),
+        NackReason::Tare(TareError::OutOfRange {
+            measured_kpa: 150.0,
+        }),
+        NackReason::Tare(TareError::Sensor),
+    ] {
+        all.push(DeviceMessage::nack(5, reason));
     }
     all
 }
@@ -269,16 +328,16 @@ fn ack_frame_bytes() {
 #[test]
 fn sample_frame_bytes() {
     // Sample = tag 3; t_ms 1000 = varint e8 07; f32 little-endian; state
-    // Expand = 1; fault None = 0; cycle 2.
+    // Expand = 1; fault None = 0; cycle 2; pressure zero 101.25.
     let payload = [
         0x03, 0xE8, 0x07, 0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0xA0, 0x3F, 0x01, 0x00, 0x00, 0x00,
-        0x98, 0x41, 0x00, 0x00, 0x9A, 0x41, 0x02,
+        0x98, 0x41, 0x00, 0x00, 0x9A, 0x41, 0x02, 0x00, 0x80, 0xCA, 0x42,
     ];
     let msg = DeviceMessage::Sample(sample());
     assert_eq!(postcard_bytes(&msg), payload);
     let frame = [
         0x04, 0x03, 0xE8, 0x07, 0x01, 0x01, 0x02, 0x3F, 0x01, 0x04, 0xA0, 0x3F, 0x01, 0x01, 0x01,
-        0x03, 0x98, 0x41, 0x01, 0x06, 0x9A, 0x41, 0x02, 0xD9, 0xDC, 0x00,
+        0x03, 0x98, 0x41, 0x01, 0x04, 0x9A, 0x41, 0x02, 0x06, 0x80, 0xCA, 0x42, 0xE1, 0xC2, 0x00,
     ];
     assert_eq!(device_frame(&msg), frame);
     assert_eq!(doc_frame(&payload), frame);
@@ -318,25 +377,25 @@ fn frame_sizes_follow_the_formula_and_fit() {
         assert_eq!(host_frame(&msg).len(), payload + 4, "{msg:?}");
         largest = largest.max(payload);
     }
-    // The largest message today is Params; the compile-time bound in the
-    // protocol module keeps it under MAX_PAYLOAD as Params grows.
+    // The largest message today is a full table chunk; the compile-time
+    // bound in the protocol module keeps every message under MAX_PAYLOAD.
     assert_eq!(
         largest,
-        postcard_bytes(&DeviceMessage::Params {
+        postcard_bytes(&HostMessage {
             seq: 0,
-            params: worst_params()
+            body: full_chunk()
         })
         .len()
     );
     assert!(largest <= MAX_PAYLOAD);
-    // The longest Sample: 1 + 5 + 4 × 4 + 1 + 2 + 3 = 28 payload bytes.
+    // The longest Sample: 1 + 5 + 4 × 4 + 1 + 2 + 3 + 4 = 32 payload bytes.
     let worst_sample = DeviceMessage::Sample(Telemetry {
         t_ms: u32::MAX,
         fault: Some(Fault::Leak),
         cycle: u16::MAX,
         ..sample()
     });
-    assert_eq!(device_frame(&worst_sample).len(), 32);
+    assert_eq!(device_frame(&worst_sample).len(), 36);
 }
 
 #[test]
@@ -454,8 +513,8 @@ fn bad_crc_is_rejected() {
 
 #[test]
 fn unknown_tag_is_rejected() {
-    // seq 1, command tag 6 (no such command), correct CRC.
-    assert_rejected_then_recovers(&doc_frame(&[0x01, 0x06]), FrameError::Decode);
+    // seq 1, command tag 12 (no such command), correct CRC.
+    assert_rejected_then_recovers(&doc_frame(&[0x01, 0x0C]), FrameError::Decode);
     // Payload ends inside SetParams.
     assert_rejected_then_recovers(&doc_frame(&[0x01, 0x04, 0x00, 0x00]), FrameError::Decode);
 }
@@ -512,7 +571,7 @@ const STATES: [State; 6] = [
     State::Advance,
     State::Fault,
 ];
-const FAULTS: [Fault; 11] = [
+const FAULTS: [Fault; 12] = [
     Fault::OverPressure,
     Fault::SensorBus,
     Fault::SensorOutOfRange,
@@ -524,12 +583,13 @@ const FAULTS: [Fault; 11] = [
     Fault::VolumeLimit,
     Fault::DiameterMismatch,
     Fault::ControlOverrun,
+    Fault::LinkLoss,
 ];
 
 fn any_telemetry() -> impl Strategy<Value = Telemetry> {
     (
         any::<u32>(),
-        prop::array::uniform4(any::<f32>()),
+        prop::array::uniform5(any::<f32>()),
         prop::sample::select(STATES.to_vec()),
         prop::option::of(prop::sample::select(FAULTS.to_vec())),
         any::<u16>(),
@@ -543,6 +603,7 @@ fn any_telemetry() -> impl Strategy<Value = Telemetry> {
             diameter_volume_mm: f[2],
             diameter_table_mm: f[3],
             cycle,
+            pressure_zero_kpa: f[4],
         })
 }
 
@@ -554,6 +615,20 @@ fn any_host_message() -> impl Strategy<Value = HostMessage> {
         Just(HostCommand::GetParams),
         any_params().prop_map(HostCommand::SetParams),
         Just(HostCommand::Ping),
+        Just(HostCommand::Heartbeat),
+        Just(HostCommand::Tare),
+        Just(HostCommand::GetInfo),
+        (any::<u32>(), any::<u32>())
+            .prop_map(|(len_bytes, crc32)| HostCommand::TableBegin { len_bytes, crc32 }),
+        (
+            any::<u32>(),
+            prop::collection::vec(any::<u8>(), 0..=TABLE_CHUNK_BYTES)
+        )
+            .prop_map(|(offset, bytes)| HostCommand::TableChunk {
+                offset,
+                data: heapless::Vec::from_slice(&bytes).unwrap_or_default(),
+            }),
+        Just(HostCommand::TableCommit),
     ];
     (any::<u8>(), body).prop_map(|(seq, body)| HostMessage { seq, body })
 }

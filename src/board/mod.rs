@@ -1,15 +1,8 @@
-//! The embassy glue for the NUCLEO-F446RE: one task per role, talking only
-//! through the `embassy_sync` primitives in [`channels`]. Every decision is
-//! made by [`crate::controller::Controller::step`]; the tasks here only move
-//! data between it and the pins.
-//!
-//! | task | owns | publishes | reads |
-//! |---|---|---|---|
-//! | [`sensor::sensor_task`] | I²C1 + MS5837 | [`channels::SAMPLE`] (latest wins) | — |
-//! | [`control::control_task`] | controller, relief valve, advance drive, IWDG | [`channels::PUMP_COMMAND`], [`channels::TELEMETRY`], [`channels::REPLIES`] | sample, pump status, [`channels::REQUESTS`] |
-//! | [`pump::pump_task`] | STEP/DIR/ENABLE, end-stops | [`channels::PUMP_STATUS`] (latest wins) | pump command |
-//! | [`link::rx_task`] | USART2 RX (DMA ring) | [`channels::REQUESTS`], `Pong`/`Nack` replies | — |
-//! | [`link::tx_task`] | USART2 TX (DMA) | frames on the wire | replies, telemetry |
+//! The embassy glue for the NUCLEO-F446RE: the concrete STM32 types behind
+//! the generic tasks of [`crate::tasks`] (embassy tasks cannot be generic,
+//! so each is a one-line wrapper here), the outputs the control task
+//! drives, and the flash the store uses. The task table is in
+//! [`crate::tasks`].
 //!
 //! # Wiring (NUCLEO-F446RE, Arduino header names in brackets)
 //!
@@ -30,17 +23,165 @@
 //! Sensor and pump grounds go to the NUCLEO's GND; the stepper driver's motor
 //! supply is separate. Clocks: HSI 16 MHz → PLL → 84 MHz SYSCLK (APB1 42 MHz,
 //! APB2 84 MHz), so no solder-bridge change is needed for an external clock.
+//!
+//! # Flash
+//!
+//! Sectors 6 and 7 (`0x0804_0000`–`0x0807_FFFF`) hold the store
+//! ([`crate::store::BOARD_LAYOUT`]); `memory.x` gives the linker only the
+//! first 256 KiB. An erase stalls the CPU for up to a few seconds (128 KiB
+//! sector, RM0390 §3.5): [`BoardFlash`] widens the independent watchdog to
+//! its longest period around each erase and restores it afterwards. Erases
+//! happen only in Idle (a table upload, every 8,192nd tare).
 
-pub mod busy_wait;
-pub mod channels;
-pub mod control;
-pub mod link;
-pub mod pump;
-pub mod sensor;
+use embassy_stm32::flash::{Blocking, Flash};
+use embassy_stm32::gpio::{Input, Level, Output};
+use embassy_stm32::i2c::{I2c, Master};
+use embassy_stm32::mode::Async;
+use embassy_stm32::peripherals::IWDG;
+use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
+use embassy_stm32::wdg::IndependentWatchdog;
+use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
 
-/// Milliseconds since boot on the embassy clock, truncated to `u32` (wraps
-/// after 49 days; the controller takes all differences wrapping).
-pub fn now_ms() -> u32 {
-    // Truncation is the documented wrap of `Inputs::now_ms`.
-    embassy_time::Instant::now().as_millis() as u32
+use crate::controller::Controller;
+use crate::drivers::ms5837::Ms5837;
+use crate::drivers::pump::SyringePump;
+use crate::protocol::Hello;
+use crate::tasks::control::BootInfo;
+use crate::tasks::{self, ControlIo, Shared, StoreMutex};
+
+/// Independent-watchdog timeout (µs): ten control periods. The LSI clock
+/// behind it may run up to 47 kHz instead of 32 kHz, which shortens this to
+/// about 68 ms, still far above one period.
+pub const WATCHDOG_TIMEOUT_US: u32 = 100_000;
+
+/// Size of the RX DMA ring (bytes): 22 ms of line time at 115200 baud, read
+/// out on every idle line or half-full ring.
+pub const RX_RING_BYTES: usize = 256;
+
+/// The tasks' channels and signals.
+pub static SHARED: Shared = Shared::new();
+
+/// The pump as the board builds it: STEP, DIR, ENABLE outputs and the
+/// EMPTY, FULL end-stop inputs.
+pub type Pump =
+    SyringePump<Output<'static>, Output<'static>, Output<'static>, Input<'static>, Input<'static>>;
+
+/// The sensor's I²C bus as the board builds it.
+pub type SensorBus = I2c<'static, Async, Master>;
+
+/// The sensor as the board builds it.
+pub type Sensor = Ms5837<SensorBus>;
+
+/// The store as the board builds it.
+pub type BoardStore = StoreMutex<BoardFlash>;
+
+/// Pins and peripherals the control task drives directly.
+pub struct ControlOutputs {
+    /// Relief valve driver (normally open valve): high = energised = closed.
+    pub relief_valve: Output<'static>,
+    /// External advance drive: high = on.
+    pub advance_drive: Output<'static>,
+    /// The independent watchdog, not yet started.
+    pub watchdog: IndependentWatchdog<'static, IWDG>,
+}
+
+impl ControlIo for ControlOutputs {
+    fn set_relief_valve_open(&mut self, open: bool) {
+        // Normally open valve: energised (high) = closed.
+        self.relief_valve
+            .set_level(if open { Level::Low } else { Level::High });
+    }
+
+    fn set_advance_drive(&mut self, on: bool) {
+        self.advance_drive
+            .set_level(if on { Level::High } else { Level::Low });
+    }
+
+    fn start_watchdog(&mut self) {
+        self.watchdog.unleash();
+    }
+
+    fn feed_watchdog(&mut self) {
+        self.watchdog.pet();
+    }
+}
+
+/// The internal flash, with the watchdog widened around erases.
+pub struct BoardFlash(pub Flash<'static, Blocking>);
+
+impl ErrorType for BoardFlash {
+    type Error = embassy_stm32::flash::Error;
+}
+
+impl ReadNorFlash for BoardFlash {
+    const READ_SIZE: usize = <Flash<'static, Blocking> as ReadNorFlash>::READ_SIZE;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        self.0.read(offset, bytes)
+    }
+
+    fn capacity(&self) -> usize {
+        self.0.capacity()
+    }
+}
+
+impl NorFlash for BoardFlash {
+    const WRITE_SIZE: usize = <Flash<'static, Blocking> as NorFlash>::WRITE_SIZE;
+    const ERASE_SIZE: usize = <Flash<'static, Blocking> as NorFlash>::ERASE_SIZE;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+        use embassy_stm32::pac::iwdg::vals::{Key, Pr};
+        let wdg = embassy_stm32::pac::IWDG;
+        let (pr, rl) = (wdg.pr().read().pr(), wdg.rlr().read().rl());
+        let set = |pr: Pr, rl: u16| {
+            while wdg.sr().read().pvu() || wdg.sr().read().rvu() {}
+            wdg.kr().write(|w| w.set_key(Key::ENABLE));
+            wdg.pr().write(|w| w.set_pr(pr));
+            wdg.rlr().write(|w| w.set_rl(rl));
+            wdg.kr().write(|w| w.set_key(Key::RESET));
+        };
+        // /256 and the full reload: about 32 s at 32 kHz, 22 s at 47 kHz.
+        set(Pr::from_bits(6), 0x0FFF);
+        let result = self.0.erase(from, to);
+        set(pr, rl);
+        result
+    }
+
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+        self.0.write(offset, bytes)
+    }
+}
+
+/// The sensor task ([`tasks::sensor::run`]).
+#[embassy_executor::task]
+pub async fn sensor_task(sensor: Sensor, store: &'static BoardStore) -> ! {
+    tasks::sensor::run(sensor, &SHARED, store).await
+}
+
+/// The pump task ([`tasks::pump::run`]).
+#[embassy_executor::task]
+pub async fn pump_task(pump: Pump) -> ! {
+    tasks::pump::run(pump, &SHARED).await
+}
+
+/// The control task ([`tasks::control::run`]).
+#[embassy_executor::task]
+pub async fn control_task(
+    controller: Controller<'static>,
+    mut io: ControlOutputs,
+    boot: BootInfo,
+) -> ! {
+    tasks::control::run(controller, &mut io, &SHARED, boot).await
+}
+
+/// The link's receiver ([`tasks::link::rx`]).
+#[embassy_executor::task]
+pub async fn rx_task(rx: RingBufferedUartRx<'static>, store: &'static BoardStore) -> ! {
+    tasks::link::rx(rx, &SHARED, store).await
+}
+
+/// The link's transmitter ([`tasks::link::tx`]).
+#[embassy_executor::task]
+pub async fn tx_task(tx: UartTx<'static, Async>, hello: Hello) -> ! {
+    tasks::link::tx(tx, &SHARED, hello).await
 }

@@ -28,7 +28,9 @@ pub const CONTROL_OVERRUN_LIMIT_MS: u32 = 3 * CONTROL_PERIOD_MS;
 /// - diameter mismatch: `diameter_mismatch_ms` + one period (from the last
 ///   step within the tolerance);
 /// - control overrun: 0, it latches in the late step itself; a loop that
-///   never steps again is the hardware watchdog's job, which is not fed.
+///   never steps again is the hardware watchdog's job, which is not fed;
+/// - link loss: `link_timeout_ms` + one period, counted from the last step
+///   that received a host frame (with the watch off, 0: it never latches).
 pub const fn detection_bound_ms(fault: Fault, params: &Params) -> u32 {
     let t = CONTROL_PERIOD_MS;
     match fault {
@@ -53,6 +55,13 @@ pub const fn detection_bound_ms(fault: Fault, params: &Params) -> u32 {
         }
         Fault::DiameterMismatch => params.diameter_mismatch_ms.saturating_add(t),
         Fault::ControlOverrun => 0,
+        Fault::LinkLoss => {
+            if params.link_timeout_ms == 0 {
+                0
+            } else {
+                params.link_timeout_ms.saturating_add(t)
+            }
+        }
     }
 }
 
@@ -82,6 +91,25 @@ pub const DIAMETER_MISMATCH_DETECT_MS: u32 =
 pub const CONTROL_OVERRUN_DETECT_MS: u32 =
     detection_bound_ms(Fault::ControlOverrun, &Params::DEFAULT);
 
+/// Link loss (default 2 s + one period).
+pub const LINK_LOSS_DETECT_MS: u32 = detection_bound_ms(Fault::LinkLoss, &Params::DEFAULT);
+
+/// Accepted range of the sensor's gauge zero, absolute (kPa): the
+/// atmosphere from about 3,000 m above sea level (70 kPa) to a deep
+/// low-lying lab on a high-pressure day with a few decimetres of water
+/// over the sensor (115 kPa; sea level is 101.3). A zero outside it means
+/// the tare was taken with the head pressurised, buried or on a broken
+/// part: `Start` is refused ([`CommandError::NoPressureZero`]).
+///
+/// [`CommandError::NoPressureZero`]: super::CommandError::NoPressureZero
+pub const PRESSURE_ZERO_RANGE_KPA: (f32, f32) = (70.0, 115.0);
+
+/// True when `zero_kpa` (absolute) is a gauge zero the controller accepts:
+/// finite and inside [`PRESSURE_ZERO_RANGE_KPA`].
+pub fn pressure_zero_in_range(zero_kpa: f32) -> bool {
+    zero_kpa >= PRESSURE_ZERO_RANGE_KPA.0 && zero_kpa <= PRESSURE_ZERO_RANGE_KPA.1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -95,6 +123,15 @@ mod tests {
         // 1 mL at 2 mL/s = 500 ms = 50 periods; 2 × (50 + 1) × 10 ms.
         assert_eq!(PUMP_STALL_DETECT_MS, 1020);
         assert_eq!(DIAMETER_MISMATCH_DETECT_MS, 510);
+        assert_eq!(LINK_LOSS_DETECT_MS, 2010);
+    }
+
+    #[test]
+    fn zero_range() {
+        assert!(pressure_zero_in_range(101.325));
+        assert!(!pressure_zero_in_range(f32::NAN));
+        assert!(!pressure_zero_in_range(60.0));
+        assert!(!pressure_zero_in_range(130.0));
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! [`Inputs`] to [`Outputs`]. See [`crate::controller`] for the cycle and
 //! the fault table.
 
-use super::bounds::{CONTROL_OVERRUN_LIMIT_MS, CONTROL_PERIOD_MS};
+use super::bounds::{pressure_zero_in_range, CONTROL_OVERRUN_LIMIT_MS, CONTROL_PERIOD_MS};
 use super::geometry::ExpansionZone;
 use super::monitors::{LeakMonitor, MismatchMonitor, SensorMonitor, StallMonitor};
 use super::params::{ParamError, Params};
@@ -45,6 +45,9 @@ pub struct Controller<'t> {
     target_volume_ml: f32,
     pump_ran: bool,
     last_expand_end: Option<ExpandEnd>,
+    pressure_zero_kpa: Option<f32>,
+    last_host_ms: u32,
+    last_fault: Option<(Fault, u32)>,
     sensor: SensorMonitor,
     plateau: PlateauDetector,
     stall: StallMonitor,
@@ -98,6 +101,9 @@ impl<'t> Controller<'t> {
             target_volume_ml: 0.0,
             pump_ran: false,
             last_expand_end: None,
+            pressure_zero_kpa: None,
+            last_host_ms: 0,
+            last_fault: None,
             sensor: SensorMonitor::new(),
             plateau: PlateauDetector::new(),
             stall: StallMonitor::default(),
@@ -114,7 +120,29 @@ impl<'t> Controller<'t> {
     pub fn latch_fault(&mut self, fault: Fault) {
         self.state = State::Fault;
         self.fault = Some(fault);
+        self.last_fault = Some((fault, self.last_now_ms.unwrap_or(0)));
         self.stopping = false;
+    }
+
+    /// Sets the sensor's gauge zero in force (absolute kPa), as taken by a
+    /// tare or read back from storage at boot; `None` when there is none.
+    /// It is reported in telemetry; `Start` is refused with
+    /// [`CommandError::NoPressureZero`] unless it lies in
+    /// [`PRESSURE_ZERO_RANGE_KPA`](super::PRESSURE_ZERO_RANGE_KPA). The
+    /// controller never takes a zero by itself.
+    pub fn set_pressure_zero(&mut self, zero_kpa: Option<f32>) {
+        self.pressure_zero_kpa = zero_kpa;
+    }
+
+    /// The gauge zero in force (absolute kPa), if any.
+    pub fn pressure_zero_kpa(&self) -> Option<f32> {
+        self.pressure_zero_kpa
+    }
+
+    /// The last fault latched since boot and the time it latched (ms, the
+    /// step clock), kept after `Reset` so a host can ask why a run stopped.
+    pub fn last_fault(&self) -> Option<(Fault, u32)> {
+        self.last_fault
     }
 
     /// Current state.
@@ -132,6 +160,11 @@ impl<'t> Controller<'t> {
     /// of limits (and why `Start`/`Reset` answer `CauseActive`).
     pub fn alarm(&self) -> Option<Fault> {
         self.alarm
+    }
+
+    /// The table in use.
+    pub fn table(&self) -> &Table<'t> {
+        &self.table
     }
 
     /// Parameters in force.
@@ -168,6 +201,13 @@ impl<'t> Controller<'t> {
             .last_now_ms
             .is_none_or(|prev| now_ms.wrapping_sub(prev) <= CONTROL_OVERRUN_LIMIT_MS);
         self.last_now_ms = Some(now_ms);
+        // Any command is a host frame: it feeds the link watch before the
+        // monitors look at it.
+        if inputs.command.is_some() {
+            self.last_host_ms = now_ms;
+        }
+        let link_lost = self.params.link_timeout_ms != 0
+            && now_ms.wrapping_sub(self.last_host_ms) > self.params.link_timeout_ms;
 
         // --- Monitors ---------------------------------------------------
         let sensor = self
@@ -215,11 +255,13 @@ impl<'t> Controller<'t> {
                     .or(leak.then_some(Fault::Leak))
                     .or(mismatch.then_some(Fault::DiameterMismatch))
                     .or((!on_time).then_some(Fault::ControlOverrun))
+                    .or(link_lost.then_some(Fault::LinkLoss))
             }
         };
         if let Some(fault) = detected {
             self.state = State::Fault;
             self.fault = Some(fault);
+            self.last_fault = Some((fault, now_ms));
             self.state_since_ms = now_ms;
         }
 
@@ -264,6 +306,7 @@ impl<'t> Controller<'t> {
                 diameter_volume_mm: m.diameter_volume_mm,
                 diameter_table_mm: m.diameter_table_mm,
                 cycle: self.cycle,
+                pressure_zero_kpa: self.pressure_zero_kpa.unwrap_or(f32::NAN),
             },
             feed_watchdog: on_time,
             command_result,
@@ -324,6 +367,9 @@ impl<'t> Controller<'t> {
 
     /// Applies one command; a refused command changes nothing.
     fn command(&mut self, command: Command, m: &Measured) -> Result<(), CommandError> {
+        if command == Command::Heartbeat {
+            return Ok(());
+        }
         if self.state == State::Fault {
             return match command {
                 Command::Reset if self.alarm.is_some() => Err(CommandError::CauseActive),
@@ -341,6 +387,9 @@ impl<'t> Controller<'t> {
             Command::Start if !idle => Err(CommandError::Busy),
             Command::Start => {
                 self.table_status.map_err(CommandError::BadTable)?;
+                if !self.pressure_zero_kpa.is_some_and(pressure_zero_in_range) {
+                    return Err(CommandError::NoPressureZero);
+                }
                 if self.alarm.is_some() || m.pressure_kpa.is_none() {
                     return Err(CommandError::CauseActive);
                 }
@@ -372,6 +421,7 @@ impl<'t> Controller<'t> {
                 self.params = new;
                 Ok(())
             }
+            Command::Heartbeat => Ok(()),
         }
     }
 

@@ -19,7 +19,11 @@
 //!   the rest volume and enters Expand. It is refused with `BadTable` when
 //!   the table failed verification, and with `CauseActive` while
 //!   [`Controller::alarm`] reports a condition (unhealthy sensor, closed
-//!   end-stop, volume out of limits) or before the first valid reading.
+//!   end-stop, volume out of limits) or before the first valid reading,
+//!   and with `NoPressureZero` unless a gauge zero inside
+//!   [`PRESSURE_ZERO_RANGE_KPA`] was set ([`Controller::set_pressure_zero`]:
+//!   the board takes it on the host's `Tare` command and keeps it in flash;
+//!   it is never re-captured by itself).
 //! - **Expand**: `Run { +expand_rate }`. The outer diameter is estimated two
 //!   ways: from the pumped volume, `D = sqrt(D0² + 4·ΔV/(π·L))`
 //!   ([`ExpansionZone`], D0 and L from the table), and from the table at the
@@ -80,6 +84,7 @@
 //! | `Leak` | in Hold, pressure > max(`leak_max_drop_kpa`, `leak_max_drop_fraction` × peak) below the hold's peak | 1 period [10 ms] | Hold |
 //! | `DiameterMismatch` | in Expand, \|D_table − D_volume\| > `diameter_mismatch_mm` for ≥ `diameter_mismatch_ms` | `diameter_mismatch_ms` + 1 period [510 ms] | Expand |
 //! | `ControlOverrun` | step more than [`CONTROL_OVERRUN_LIMIT_MS`] (30 ms) after the previous one, or time going backwards | the late step itself [0 ms] | active |
+//! | `LinkLoss` | no command (a `Heartbeat` counts) for more than `link_timeout_ms` (0 = watch off, only allowed with a cycle limit) | `link_timeout_ms` + 1 period [2010 ms] | active |
 //!
 //! Safe action for every row: pump disabled, relief valve open, advance
 //! drive off, latched until an accepted `Reset`.
@@ -102,6 +107,6 @@ pub mod types;
 pub use bounds::*;
 pub use geometry::ExpansionZone;
 pub use machine::{Controller, ExpandEnd};
-pub use params::{FieldRange, ParamError, ParamField, Params, RANGES};
+pub use params::{FieldRange, ParamError, ParamField, Params, LINK_TIMEOUT_MIN_MS, RANGES};
 pub use plateau::{PlateauDetector, PLATEAU_CONFIRM_SAMPLES, PLATEAU_WINDOW_SAMPLES};
 pub use types::*;

@@ -5,7 +5,9 @@
 //! doc). [`Params::validate`] checks every field against it (NaN fails every
 //! range) plus one cross-field rule: `max_pressure_kpa < sensor_max_kpa`, so
 //! the limit is always inside what the sensor can measure (reported as
-//! [`ParamField::MaxPressureKpa`]).
+//! [`ParamField::MaxPressureKpa`]), and one on the host link: a cycle
+//! without a limit (`cycles` = 0) needs the link watch
+//! (`link_timeout_ms` > 0, reported as [`ParamField::LinkTimeoutMs`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -100,7 +102,19 @@ pub struct Params {
     /// This many consecutive steps with a bus error (or no sample) is a bus
     /// fault. Range 1–100.
     pub sensor_bus_error_steps: u8,
+    /// Host link watchdog: while a cycle runs, no host frame (a command or
+    /// a `Heartbeat`) for longer than this stops it into the safe state
+    /// with [`Fault::LinkLoss`](super::Fault::LinkLoss) (ms). Range
+    /// 0–60 000; 0 turns the watch off and is accepted only with a cycle
+    /// limit (`cycles` > 0): a cycle without a limit always needs the
+    /// heartbeat. A value below [`LINK_TIMEOUT_MIN_MS`] other than 0 is
+    /// refused.
+    pub link_timeout_ms: u32,
 }
+
+/// Shortest link timeout accepted other than 0 (ms): ten control periods,
+/// so that one late frame on a busy link does not stop a cycle.
+pub const LINK_TIMEOUT_MIN_MS: u32 = 100;
 
 /// A parameter field, named in errors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -132,6 +146,7 @@ pub enum ParamField {
     SensorStaleMs,
     SensorFrozenMs,
     SensorBusErrorSteps,
+    LinkTimeoutMs,
 }
 
 /// A rejected parameter set: the first field out of its range.
@@ -160,7 +175,7 @@ const fn range(field: ParamField, min: f32, max: f32) -> FieldRange {
 
 /// Every field's accepted range, in declaration order; [`Params::validate`]
 /// walks this table.
-pub const RANGES: [FieldRange; 25] = [
+pub const RANGES: [FieldRange; 26] = [
     range(ParamField::DepthMm, 0.0, 200.0),
     range(ParamField::TargetDiameterMm, 10.0, 50.0),
     range(ParamField::ExpandRateMlPerS, 0.05, 10.0),
@@ -186,6 +201,7 @@ pub const RANGES: [FieldRange; 25] = [
     range(ParamField::SensorStaleMs, 10.0, 1000.0),
     range(ParamField::SensorFrozenMs, 20.0, 10_000.0),
     range(ParamField::SensorBusErrorSteps, 1.0, 100.0),
+    range(ParamField::LinkTimeoutMs, 0.0, 60_000.0),
 ];
 
 impl ParamField {
@@ -229,6 +245,7 @@ impl Params {
         sensor_stale_ms: 50,
         sensor_frozen_ms: 300,
         sensor_bus_error_steps: 3,
+        link_timeout_ms: 2_000,
     };
 
     /// Largest pressure drop below a hold's peak `peak_kpa` that is not a
@@ -272,6 +289,7 @@ impl Params {
             ParamField::SensorStaleMs => self.sensor_stale_ms as f32,
             ParamField::SensorFrozenMs => self.sensor_frozen_ms as f32,
             ParamField::SensorBusErrorSteps => f32::from(self.sensor_bus_error_steps),
+            ParamField::LinkTimeoutMs => self.link_timeout_ms as f32,
         }
     }
 
@@ -305,12 +323,14 @@ impl Params {
             ParamField::SensorStaleMs => self.sensor_stale_ms = value as u32,
             ParamField::SensorFrozenMs => self.sensor_frozen_ms = value as u32,
             ParamField::SensorBusErrorSteps => self.sensor_bus_error_steps = value as u8,
+            ParamField::LinkTimeoutMs => self.link_timeout_ms = value as u32,
         }
     }
 
     /// Checks every field against [`RANGES`] (NaN is out of every range),
-    /// then `max_pressure_kpa < sensor_max_kpa`. Returns the first offending
-    /// field in declaration order.
+    /// then `max_pressure_kpa < sensor_max_kpa`, then the link timeout
+    /// (0 only with `cycles` > 0, else at least [`LINK_TIMEOUT_MIN_MS`]).
+    /// Returns the first offending field in declaration order.
     pub fn validate(&self) -> Result<(), ParamError> {
         for r in RANGES {
             let v = self.get(r.field);
@@ -323,6 +343,12 @@ impl Params {
         if !measurable {
             return Err(ParamError {
                 field: ParamField::MaxPressureKpa,
+            });
+        }
+        let link = self.link_timeout_ms;
+        if (link == 0 && self.cycles == 0) || (link != 0 && link < LINK_TIMEOUT_MIN_MS) {
+            return Err(ParamError {
+                field: ParamField::LinkTimeoutMs,
             });
         }
         Ok(())

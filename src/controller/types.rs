@@ -63,11 +63,14 @@ pub enum Fault {
     DiameterMismatch,
     /// Control steps arrived late (loop overrun); the watchdog is starved.
     ControlOverrun,
+    /// No host frame for longer than `link_timeout_ms` while a cycle ran:
+    /// the host (or its cable) is gone.
+    LinkLoss,
 }
 
 impl Fault {
     /// Every fault kind, in declaration order (codecs and tests walk it).
-    pub const ALL: [Fault; 11] = [
+    pub const ALL: [Fault; 12] = [
         Fault::OverPressure,
         Fault::SensorBus,
         Fault::SensorOutOfRange,
@@ -79,6 +82,7 @@ impl Fault {
         Fault::VolumeLimit,
         Fault::DiameterMismatch,
         Fault::ControlOverrun,
+        Fault::LinkLoss,
     ];
 }
 
@@ -95,6 +99,10 @@ pub enum Command {
     Reset,
     /// Replace all parameters (Idle only); an invalid set is rejected whole.
     SetParams(Params),
+    /// The host is there: no effect but keeping the link watch
+    /// (`link_timeout_ms`) fed. Every other command feeds it too. Accepted
+    /// in every state.
+    Heartbeat,
 }
 
 /// Why a command was refused. A refused command has no side effect.
@@ -113,6 +121,10 @@ pub enum CommandError {
     /// unhealthy sensor (or no reading yet), closed end-stop, volume out of
     /// limits. See `Controller::alarm`.
     CauseActive,
+    /// `Start` without a pressure zero in
+    /// [`PRESSURE_ZERO_RANGE_KPA`](super::PRESSURE_ZERO_RANGE_KPA): tare
+    /// first (or again).
+    NoPressureZero,
 }
 
 /// The latest pressure sample as the sensor task delivers it.
@@ -194,6 +206,9 @@ pub struct Telemetry {
     pub diameter_table_mm: f32,
     /// Completed cycles since the last start.
     pub cycle: u16,
+    /// The sensor's gauge zero in force (absolute kPa), as taken by the
+    /// last tare; NaN when there is none.
+    pub pressure_zero_kpa: f32,
 }
 
 /// Everything one control step decides.
@@ -252,6 +267,7 @@ mod tests {
                 Fault::VolumeLimit => 8,
                 Fault::DiameterMismatch => 9,
                 Fault::ControlOverrun => 10,
+                Fault::LinkLoss => 11,
             };
             assert_eq!(k, i);
         }

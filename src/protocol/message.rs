@@ -9,16 +9,28 @@
 use serde::{Deserialize, Serialize};
 
 use super::frame::FrameError;
-use crate::controller::{Command, CommandError, Params, Telemetry};
+use crate::controller::{Command, CommandError, Fault, Params, State, Telemetry};
+use crate::table::image::ImageError;
 use crate::table::Table;
 
 /// Version of the wire format (framing, CRC and message layouts), sent in
-/// [`Hello`]. Bump it on any incompatible change.
-pub const PROTOCOL_VERSION: u16 = 1;
+/// [`Hello`] and [`Info`]. Bump it on any incompatible change.
+///
+/// 2: `Heartbeat`, `Tare`, `GetInfo` and the table upload; `Info`;
+/// telemetry carries the pressure zero; `Params` has `link_timeout_ms`.
+pub const PROTOCOL_VERSION: u16 = 2;
+
+/// Largest table-image piece in one [`HostCommand::TableChunk`] (bytes):
+/// with its offset and the message's other bytes it stays well inside
+/// [`MAX_PAYLOAD`](super::MAX_PAYLOAD).
+pub const TABLE_CHUNK_BYTES: usize = 128;
+
+/// The bytes of one table-image piece.
+pub type ChunkData = heapless::Vec<u8, TABLE_CHUNK_BYTES>;
 
 /// A host → device message: a command with the host's sequence number, echoed
 /// in the reply so the host can match replies to requests.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HostMessage {
     /// Sequence number chosen by the host (wraps at 255).
@@ -27,8 +39,8 @@ pub struct HostMessage {
     pub body: HostCommand,
 }
 
-/// What the host can ask. Wire tags 0..=5 in this order.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// What the host can ask. Wire tags 0..=11 in this order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum HostCommand {
     /// Start the cycle from Idle (controller [`Command::Start`]).
@@ -43,21 +55,114 @@ pub enum HostCommand {
     SetParams(Params),
     /// Liveness check; answered with [`DeviceMessage::Pong`].
     Ping,
+    /// The host is there (controller [`Command::Heartbeat`]): feeds the
+    /// link watch (`Params::link_timeout_ms`) while a cycle runs. `Ack`.
+    Heartbeat,
+    /// Take the sensor's gauge zero now (Idle only), with the head at rest
+    /// in free water: the mean of a burst of readings, checked against
+    /// [`PRESSURE_ZERO_RANGE_KPA`](crate::controller::PRESSURE_ZERO_RANGE_KPA),
+    /// stored in flash and used from then on. `Ack`, or `Nack` with
+    /// [`NackReason::Tare`].
+    Tare,
+    /// Ask what the device runs; answered with [`DeviceMessage::Info`].
+    GetInfo,
+    /// Begin a table upload (Idle only): the image
+    /// ([`crate::table::image`]) that follows is `len_bytes` long with
+    /// CRC-32 `crc32` (the table's algorithm) over all of it. Erases the
+    /// stored table. `Ack`, or `Nack` with [`NackReason::Upload`].
+    TableBegin {
+        /// Image length (bytes).
+        len_bytes: u32,
+        /// CRC-32/ISO-HDLC of the whole image.
+        crc32: u32,
+    },
+    /// The next piece of the image, at `offset` bytes from its start
+    /// (pieces in order, no gaps). `Ack` or `Nack`.
+    TableChunk {
+        /// Position of `data` in the image (bytes).
+        offset: u32,
+        /// At most [`TABLE_CHUNK_BYTES`] bytes.
+        data: ChunkData,
+    },
+    /// End the upload: the device checks length, CRC-32 and the table
+    /// itself ([`Table::verify`]) and answers `Ack`, or `Nack` with
+    /// [`NackReason::Upload`] (the stored image is then erased). A stored
+    /// table is used from the next boot on.
+    TableCommit,
 }
 
 impl HostCommand {
     /// The controller command this host command carries, or `None` for the
     /// requests the link answers itself ([`HostCommand::GetParams`],
     /// [`HostCommand::Ping`]).
+    ///
+    /// Every host frame shows the host is there: the board feeds the link
+    /// watch with [`Command::Heartbeat`] for those ([`HostCommand::link_feed`]).
     pub fn to_controller(&self) -> Option<Command> {
         match *self {
             HostCommand::Start => Some(Command::Start),
             HostCommand::Stop => Some(Command::Stop),
             HostCommand::Reset => Some(Command::Reset),
             HostCommand::SetParams(params) => Some(Command::SetParams(params)),
-            HostCommand::GetParams | HostCommand::Ping => None,
+            HostCommand::Heartbeat => Some(Command::Heartbeat),
+            HostCommand::GetParams
+            | HostCommand::Ping
+            | HostCommand::Tare
+            | HostCommand::GetInfo
+            | HostCommand::TableBegin { .. }
+            | HostCommand::TableChunk { .. }
+            | HostCommand::TableCommit => None,
         }
     }
+
+    /// What the controller is given for this frame: its own command, or a
+    /// [`Command::Heartbeat`] for the requests answered elsewhere (every
+    /// host frame feeds the link watch).
+    pub fn link_feed(&self) -> Command {
+        self.to_controller().unwrap_or(Command::Heartbeat)
+    }
+}
+
+/// Why a table upload was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum UploadError {
+    /// A cycle runs or a fault is latched: uploads only in Idle.
+    NotIdle,
+    /// A chunk or commit without a `TableBegin` before it.
+    NotStarted,
+    /// The announced length is below a header or above the flash area.
+    Length,
+    /// A chunk out of order, overlapping, or past the announced length.
+    Offset,
+    /// Commit before every byte arrived.
+    Incomplete,
+    /// The CRC-32 over the received image differs from the announced one.
+    Crc,
+    /// The flash refused an erase, write or read.
+    Flash,
+    /// The image arrived whole but is no valid table.
+    Image(ImageError),
+}
+
+/// Why a tare was refused; the zero in force is unchanged.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TareError {
+    /// Only in Idle.
+    NotIdle,
+    /// The sensor gave no readings.
+    Sensor,
+    /// The mean reading (absolute kPa) is outside
+    /// [`PRESSURE_ZERO_RANGE_KPA`](crate::controller::PRESSURE_ZERO_RANGE_KPA).
+    OutOfRange {
+        /// What was measured (absolute kPa).
+        measured_kpa: f32,
+    },
+    /// The flash refused to store it.
+    Flash,
+    /// A tare is already under way.
+    Busy,
 }
 
 /// Why the device refused a host message.
@@ -69,6 +174,10 @@ pub enum NackReason {
     Command(CommandError),
     /// The frame itself was malformed and was dropped unread.
     Frame(FrameError),
+    /// A table upload step was refused.
+    Upload(UploadError),
+    /// A tare was refused.
+    Tare(TareError),
 }
 
 /// Firmware version, from the crate version at build time.
@@ -128,7 +237,66 @@ impl Hello {
     }
 }
 
-/// A device → host message. Wire tags 0..=5 in this order.
+/// Where the table in use came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TableSource {
+    /// The table compiled into the firmware.
+    CompiledIn,
+    /// A table uploaded with `TableBegin`…`TableCommit`, read from flash
+    /// and verified at boot.
+    Uploaded,
+}
+
+/// What the flash's table area held at boot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StoredTable {
+    /// Nothing was ever stored (erased flash).
+    Absent,
+    /// A valid image, in use.
+    Valid,
+    /// An image that failed its check: the compiled-in table is used.
+    Rejected(ImageError),
+}
+
+/// Reply to [`HostCommand::GetInfo`]: what the device runs and how it is.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Info {
+    /// [`PROTOCOL_VERSION`] of the firmware.
+    pub protocol_version: u16,
+    /// Firmware version.
+    pub firmware_version: FirmwareVersion,
+    /// Format version of the table in use.
+    pub table_format_version: u16,
+    /// CRC-32 of the table in use ([`Table::checksum`]).
+    pub table_checksum: u32,
+    /// True while the table in use comes from the placeholder law.
+    pub table_placeholder: bool,
+    /// Where the table in use came from.
+    pub table_source: TableSource,
+    /// What the flash's table area held at boot.
+    pub stored_table: StoredTable,
+    /// Gauge zero in force (absolute kPa); NaN when none was taken.
+    pub pressure_zero_kpa: f32,
+    /// Controller state.
+    pub state: State,
+    /// Latched fault, if any.
+    pub fault: Option<Fault>,
+    /// The last fault latched since boot (kept after `Reset`): its cause.
+    pub last_fault: Option<Fault>,
+    /// When it latched (ms since boot).
+    pub last_fault_ms: u32,
+    /// Time since boot (ms).
+    pub uptime_ms: u32,
+    /// Host frames the device dropped (CRC, COBS, …) since boot.
+    pub frame_errors: u32,
+    /// Telemetry samples dropped because the link fell behind, since boot.
+    pub telemetry_dropped: u32,
+}
+
+/// A device → host message. Wire tags 0..=6 in this order.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeviceMessage {
@@ -161,6 +329,13 @@ pub enum DeviceMessage {
     },
     /// Sent once at boot.
     Hello(Hello),
+    /// Reply to [`HostCommand::GetInfo`].
+    Info {
+        /// Sequence number of the request.
+        seq: u8,
+        /// What the device runs and how it is.
+        info: Info,
+    },
 }
 
 impl DeviceMessage {
@@ -173,6 +348,14 @@ impl DeviceMessage {
                 seq: Some(seq),
                 reason: NackReason::Command(e),
             },
+        }
+    }
+
+    /// A refusal of host message `seq` for `reason`.
+    pub fn nack(seq: u8, reason: NackReason) -> DeviceMessage {
+        DeviceMessage::Nack {
+            seq: Some(seq),
+            reason,
         }
     }
 

@@ -69,6 +69,9 @@
 //!
 //! # Messages
 //!
+//! This is version 2 ([`PROTOCOL_VERSION`]); a host must check the
+//! version in `Hello` or `Info` and refuse another one.
+//!
 //! Host → device: [`HostMessage`] `{ seq: u8, body: HostCommand }`; every
 //! command gets exactly one reply echoing `seq`.
 //!
@@ -80,23 +83,50 @@
 //! | 3 | `GetParams` | – | `Params` |
 //! | 4 | `SetParams` | [`Params`](crate::controller::Params) | `Ack` or `Nack` |
 //! | 5 | `Ping` | – | `Pong` |
+//! | 6 | `Heartbeat` | – | `Ack` |
+//! | 7 | `Tare` | – | `Ack` or `Nack` (`Tare(`[`TareError`]`)`), after about 0.2 s |
+//! | 8 | `GetInfo` | – | `Info` |
+//! | 9 | `TableBegin` | `len_bytes: u32`, `crc32: u32` | `Ack` or `Nack` (`Upload(`[`UploadError`]`)`) |
+//! | 10 | `TableChunk` | `offset: u32`, `data:` length varint + up to [`TABLE_CHUNK_BYTES`] bytes | `Ack` or `Nack` |
+//! | 11 | `TableCommit` | – | `Ack` or `Nack` |
 //!
 //! Device → host: [`DeviceMessage`].
 //!
 //! | tag | variant | fields |
 //! |---|---|---|
 //! | 0 | `Ack` | `seq: u8` |
-//! | 1 | `Nack` | `seq: Option<u8>`, `reason:` [`NackReason`] (0 = `Command(`[`CommandError`](crate::controller::CommandError)`)`, 1 = `Frame(`[`FrameError`]`)`) |
+//! | 1 | `Nack` | `seq: Option<u8>`, `reason:` [`NackReason`] (0 = `Command(`[`CommandError`](crate::controller::CommandError)`)`, 1 = `Frame(`[`FrameError`]`)`, 2 = `Upload(`[`UploadError`]`)`, 3 = `Tare(`[`TareError`]`)`) |
 //! | 2 | `Params` | `seq: u8`, `params:` [`Params`](crate::controller::Params) |
 //! | 3 | `Sample` | [`Telemetry`](crate::controller::Telemetry) |
 //! | 4 | `Pong` | `seq: u8` |
 //! | 5 | `Hello` | [`Hello`]: `protocol_version: u16`, `firmware_version: { major, minor, patch: u16 }`, `table_checksum: u32`, `table_placeholder: bool` |
+//! | 6 | `Info` | `seq: u8`, `info:` [`Info`] (versions, the table in use and where it came from, what the flash held, the pressure zero, state, fault, last fault and when, uptime, frame errors, dropped telemetry) |
 //!
 //! `Params`, `Telemetry` and the enums inside them (`State`, `Fault`,
 //! `CommandError`, …) are encoded field by field and variant by variant in
 //! the order they are declared in [`crate::controller`]; reordering them is a
 //! wire change and bumps [`PROTOCOL_VERSION`]. The device sends `Hello` once
 //! at boot and a `Sample` per control step (or decimated).
+//!
+//! ## Sessions
+//!
+//! - **Link watch**: while a cycle runs, the device stops it into the safe
+//!   state with `Fault::LinkLoss` when no host frame arrived for
+//!   `Params::link_timeout_ms` (default 2 s). A host that runs a cycle sends
+//!   `Heartbeat` (or any other frame) at least every 0.5 s. A cycle without
+//!   a cycle limit (`cycles` = 0) cannot turn the watch off.
+//! - **Tare**: with the head at rest in free water, `Tare` takes the
+//!   sensor's gauge zero, checks it against
+//!   [`PRESSURE_ZERO_RANGE_KPA`](crate::controller::PRESSURE_ZERO_RANGE_KPA)
+//!   and stores it in flash; `Start` is refused (`NoPressureZero`) until a
+//!   zero in range is in force. Telemetry and `Info` carry it.
+//! - **Table upload** (Idle only): `TableBegin` with the image's length and
+//!   CRC-32 (the table's algorithm, [`crate::table::CHECKSUM_ALGORITHM`],
+//!   over the whole image of [`crate::table::image`]) erases the stored
+//!   table; `TableChunk`s follow in order from offset 0, each acknowledged
+//!   before the next; `TableCommit` checks length, CRC-32 and the table
+//!   itself. The device uses a stored table from its next boot on and
+//!   reports it in `Info` (`table_source`, `stored_table`).
 //!
 //! # Examples
 //!
@@ -111,18 +141,19 @@
 //!
 //! `DeviceMessage::Sample` with `t_ms = 1000`, `volume_ml = 0.5`,
 //! `pressure_kpa = 1.25`, `state = Expand`, `fault = None`,
-//! `diameter_volume_mm = 19.0`, `diameter_table_mm = 19.25`, `cycle = 2`
-//! (22-byte payload, 26-byte frame):
+//! `diameter_volume_mm = 19.0`, `diameter_table_mm = 19.25`, `cycle = 2`,
+//! `pressure_zero_kpa = 101.25` (26-byte payload, 30-byte frame):
 //!
 //! ```text
-//! payload 03 | E8 07 | 00 00 00 3F | 00 00 A0 3F | 01 | 00 | 00 00 98 41 | 00 00 9A 41 | 02
-//!         tag  t_ms    volume_ml     pressure_kpa  st  flt  d_volume      d_table       cycle
-//! crc     D9 DC
-//! frame   04 03 E8 07 01 01 02 3F 01 04 A0 3F 01 01 01 03 98 41 01 06 9A 41 02 D9 DC 00
+//! payload 03 | E8 07 | 00 00 00 3F | 00 00 A0 3F | 01 | 00 | 00 00 98 41 | 00 00 9A 41 | 02    | 00 80 CA 42
+//!         tag  t_ms    volume_ml     pressure_kpa  st  flt  d_volume      d_table       cycle   zero
+//! crc     E1 C2
+//! frame   04 03 E8 07 01 01 02 3F 01 04 A0 3F 01 01 01 03 98 41 01 04 9A 41 02 06 80 CA 42 E1 C2 00
 //! ```
 //!
-//! A `Sample` frame is 26 to 32 bytes, about 2.3–2.8 ms at 115200 baud
-//! (11 520 bytes/s), so the link carries 100 samples/s at under 30 % load.
+//! A `Sample` frame is 30 to 36 bytes, about 2.6–3.1 ms at 115200 baud
+//! (11 520 bytes/s), so the link carries 100 samples/s at about a third of
+//! its capacity.
 //!
 //! # Use
 //!

@@ -12,6 +12,7 @@
 
 #[rustfmt::skip]
 pub mod generated;
+pub mod image;
 
 /// Format version of the table layout and checksum rule; `host-sim tables`
 /// writes the same number. Bump it whenever either changes.

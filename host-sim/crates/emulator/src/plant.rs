@@ -296,6 +296,12 @@ impl Plant {
         self.sensor.sample()
     }
 
+    /// The gauge zero the sensor was tared at (absolute kPa): what the
+    /// board's `Tare` stores and the controller is given.
+    pub fn pressure_zero_kpa(&self) -> f32 {
+        self.sensor.zero_kpa()
+    }
+
     /// The pump volume the controller sees now (mL).
     pub fn pump_volume_ml(&self) -> f32 {
         self.pump.reported_volume_ml()

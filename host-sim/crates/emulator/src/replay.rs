@@ -34,8 +34,14 @@ pub fn encode(trace: &Trace) -> Result<Vec<u8>> {
     let mut bytes = Vec::new();
     let mut sink = |b: &[u8]| bytes.extend_from_slice(b);
     let steps = u32::try_from(trace.steps.len()).context("too many steps to record")?;
-    Recorder::header(TABLE.checksum, steps, &trace.scenario.name, &mut sink)
-        .map_err(|_| anyhow!("scenario name `{}` too long", trace.scenario.name))?;
+    Recorder::header(
+        TABLE.checksum,
+        trace.pressure_zero_kpa,
+        steps,
+        &trace.scenario.name,
+        &mut sink,
+    )
+    .map_err(|_| anyhow!("scenario name `{}` too long", trace.scenario.name))?;
     let mut rec = Recorder::default();
     for (i, s) in trace.steps.iter().enumerate() {
         rec.step(&s.inputs, &s.outputs, &mut sink)

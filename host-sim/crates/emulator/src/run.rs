@@ -54,7 +54,13 @@ pub struct Trace {
     pub sensed_kpa_ms: Vec<f32>,
     /// Whether a pump end-stop was closed, index = time in ms.
     pub end_stop_ms: Vec<bool>,
+    /// The pressure zero the controller was given at boot (absolute kPa).
+    pub pressure_zero_kpa: f32,
 }
+
+/// The emulated host sends a `Heartbeat` this often when it has no other
+/// command (ms), as `host-sim board run` does.
+pub const HEARTBEAT_MS: u32 = 500;
 
 impl Trace {
     /// Outputs of the last step.
@@ -68,6 +74,8 @@ impl Trace {
 pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
     let mut plant = Plant::new(&scenario.plant, scenario.depth_mm, seed)?;
     let mut ctrl = Controller::with_default_params(TABLE);
+    // The board's zero, taken by a tare at rest before the run.
+    ctrl.set_pressure_zero(Some(plant.pressure_zero_kpa()));
     let mut steps = Vec::new();
     let mut injected = Vec::new();
     let mut pending: Vec<_> = scenario.injections.clone();
@@ -109,6 +117,9 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
             Some(Command::SetParams(scenario.params))
         } else if now_ms == START_MS {
             Some(Command::Start)
+        } else if now_ms.is_multiple_of(HEARTBEAT_MS) {
+            // The host is connected: it feeds the link watch.
+            Some(Command::Heartbeat)
         } else {
             None
         };
@@ -168,5 +179,6 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
         line_kpa_ms,
         sensed_kpa_ms,
         end_stop_ms,
+        pressure_zero_kpa: plant.pressure_zero_kpa(),
     })
 }

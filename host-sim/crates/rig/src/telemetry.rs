@@ -245,8 +245,10 @@ pub fn to_experiment(capture: &Capture, options: &ConvertOptions) -> Result<Conv
                 });
                 o.last_ms = t.t_ms;
             }
-            DeviceMessage::Ack { .. } | DeviceMessage::Nack { .. } | DeviceMessage::Pong { .. } => {
-            }
+            DeviceMessage::Ack { .. }
+            | DeviceMessage::Nack { .. }
+            | DeviceMessage::Pong { .. }
+            | DeviceMessage::Info { .. } => {}
         }
     }
     close(&mut open, &mut runs);

@@ -2,24 +2,20 @@
 //! commanded rate and reports the plunger's volume and end-stops.
 
 use embassy_futures::select::{select, Either};
-use embassy_stm32::gpio::{Input, Output};
 use embassy_time::{Duration, Instant, Timer};
+use embedded_hal::digital::{InputPin, OutputPin};
 
 use super::busy_wait::BusyWait;
-use super::channels::{PumpStatus, PUMP_COMMAND, PUMP_STATUS};
+use super::log::{log_error, log_warn};
+use super::{PumpStatus, Shared};
 use crate::controller::{EndStops, PumpCommand};
 use crate::drivers::pump::{Direction, PumpError, SyringePump};
-
-/// The pump as the board builds it: STEP, DIR, ENABLE outputs and the
-/// EMPTY, FULL end-stop inputs.
-pub type Pump =
-    SyringePump<Output<'static>, Output<'static>, Output<'static>, Input<'static>, Input<'static>>;
 
 /// How often the end-stops are re-read while the motor is not stepping
 /// (ms), so the control loop sees a closed switch within a step or two.
 pub const IDLE_POLL_MS: u64 = 2;
 
-/// Applies [`PUMP_COMMAND`]s as they arrive.
+/// Applies [`Shared::pump_command`]s as they arrive.
 ///
 /// - `Disable`: ENABLE off, no steps (the boot state).
 /// - `Hold`: ENABLE on, no steps.
@@ -28,12 +24,18 @@ pub const IDLE_POLL_MS: u64 = 2;
 ///   (no drift from the pulse's own length); a new command cancels the
 ///   wait at once. The driver refuses a step into a closed end-stop.
 ///
-/// After every change and every step it publishes [`PUMP_STATUS`].
-#[embassy_executor::task]
-pub async fn pump_task(mut pump: Pump) -> ! {
+/// After every change and every step it publishes [`Shared::pump_status`].
+pub async fn run<S, D, E, Ee, Ef>(mut pump: SyringePump<S, D, E, Ee, Ef>, shared: &Shared) -> !
+where
+    S: OutputPin,
+    D: OutputPin,
+    E: OutputPin,
+    Ee: InputPin,
+    Ef: InputPin,
+{
     let mut command = PumpCommand::Disable;
     apply(&mut pump, command);
-    publish(&mut pump);
+    publish(&mut pump, shared);
     let mut next_step = Instant::now();
     // Logged once per change, not at the step rate.
     let mut last_refusal: Option<PumpError> = None;
@@ -48,7 +50,7 @@ pub async fn pump_task(mut pump: Pump) -> ! {
             Some(_) => next_step,
             None => Instant::now() + Duration::from_millis(IDLE_POLL_MS),
         };
-        match select(PUMP_COMMAND.wait(), Timer::at(wake_at)).await {
+        match select(shared.pump_command.wait(), Timer::at(wake_at)).await {
             Either::First(new) => {
                 if !same_motion(command, new) {
                     // A start or reversal steps at once, then on the new period.
@@ -64,7 +66,7 @@ pub async fn pump_task(mut pump: Pump) -> ! {
                     let refusal = pump.step(direction, &mut BusyWait).await.err();
                     if refusal != last_refusal {
                         if let Some(e) = refusal {
-                            defmt::warn!("pump: step refused: {}", e);
+                            log_warn!("pump: step refused: {}", e);
                         }
                         last_refusal = refusal;
                     }
@@ -77,18 +79,25 @@ pub async fn pump_task(mut pump: Pump) -> ! {
                 }
             }
         }
-        publish(&mut pump);
+        publish(&mut pump, shared);
     }
 }
 
 /// ENABLE per command. A failed pin write leaves the driver refusing steps.
-fn apply(pump: &mut Pump, command: PumpCommand) {
+fn apply<S, D, E, Ee, Ef>(pump: &mut SyringePump<S, D, E, Ee, Ef>, command: PumpCommand)
+where
+    S: OutputPin,
+    D: OutputPin,
+    E: OutputPin,
+    Ee: InputPin,
+    Ef: InputPin,
+{
     let result = match command {
         PumpCommand::Disable => pump.disable(),
         PumpCommand::Hold | PumpCommand::Run { .. } => pump.enable(),
     };
     if let Err(e) = result {
-        defmt::error!("pump: {} failed: {}", command, e);
+        log_error!("pump: {} failed: {}", command, e);
     }
 }
 
@@ -105,12 +114,19 @@ fn same_motion(old: PumpCommand, new: PumpCommand) -> bool {
 
 /// Publishes volume and end-stops; an unreadable switch reads as closed so
 /// the controller stops.
-fn publish(pump: &mut Pump) {
+fn publish<S, D, E, Ee, Ef>(pump: &mut SyringePump<S, D, E, Ee, Ef>, shared: &Shared)
+where
+    S: OutputPin,
+    D: OutputPin,
+    E: OutputPin,
+    Ee: InputPin,
+    Ef: InputPin,
+{
     let end_stops = pump.end_stops().unwrap_or(EndStops {
         empty: true,
         full: true,
     });
-    PUMP_STATUS.sender().send(PumpStatus {
+    shared.pump_status.sender().send(PumpStatus {
         volume_ml: pump.volume_ml(),
         end_stops,
     });
