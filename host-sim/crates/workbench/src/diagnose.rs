@@ -548,14 +548,64 @@ fn diagnose_skipping(
                 best = Some((fit.clone(), h));
             }
         }
+        // A sand and a skin that are not the model's can need several
+        // forms, each taking its own part of the misfit: when no single
+        // candidate pays, the two best forms that pay on every count but
+        // the excess explained are judged together.
+        let mut added = 1;
+        if best.is_none() {
+            let pays_but_excess = |f: &(Fit, Candidate)| {
+                f.1.score <= opts.max_delta_bic
+                    && f.1.refusals.is_empty()
+                    && f.1.heldout_rmse_kpa.is_some_and(|h| {
+                        h <= current_heldout.overall * (1.0 - opts.min_heldout_gain)
+                    })
+                    && f.0
+                        .space
+                        .effects
+                        .last()
+                        .is_some_and(|e| e.spec.kind.is_baseline_form())
+            };
+            let pair: Vec<&(Fit, Candidate)> =
+                fits.iter().filter(|f| pays_but_excess(f)).take(2).collect();
+            if let [a, b] = pair[..] {
+                let mut effects = current.space.effects.clone();
+                effects.extend(a.0.space.effects.last().cloned());
+                effects.extend(b.0.space.effects.last().cloned());
+                if let Ok(fit) =
+                    fit_effects(basis, &data, current.space.baseline, effects, opts.fit)
+                {
+                    let h = heldout(&fit, &data, &masks, opts);
+                    let explained = (current.rmse_kpa.powi(2) - fit.rmse_kpa.powi(2)) / excess;
+                    let own_bound = fit.params.iter().any(|p| {
+                        p.at_bound
+                            && [&a.1.effect, &b.1.effect]
+                                .iter()
+                                .any(|e| p.name.starts_with(&format!("{e}.")))
+                    });
+                    let pays = fit.bic() - current_bic <= opts.max_delta_bic
+                        && h.overall <= current_heldout.overall * (1.0 - opts.min_heldout_gain)
+                        && h.better_folds(&current_heldout) + opts.max_folds_worse + 1
+                            >= h.folds.len()
+                        && explained >= opts.min_excess_explained
+                        && !own_bound;
+                    if pays {
+                        best = Some((fit, h));
+                        added = 2;
+                    }
+                }
+            }
+        }
         rounds.push(fits.iter().map(|f| f.1.clone()).collect());
         match best {
             Some((fit, h)) => {
-                let added = fit.space.effects.last().map(|e| e.spec);
-                if added.is_some_and(|s| !s.kind.is_baseline_form()) {
-                    physical += 1;
+                let new = &fit.space.effects[fit.space.effects.len() - added..];
+                for e in new {
+                    if !e.spec.kind.is_baseline_form() {
+                        physical += 1;
+                    }
+                    selected.push(e.spec.name.to_owned());
                 }
-                selected.push(added.map(|s| s.name.to_owned()).unwrap_or_default());
                 current = fit;
                 current_heldout = h;
             }

@@ -72,6 +72,26 @@ fn the_outside_control_gets_no_physical_effect() {
 }
 
 #[test]
+fn two_forms_that_share_the_misfit_are_added_together() {
+    // Seed 2 with [skin]: after the depth and unloading forms, sand_rise
+    // and skin_shape each take just under a third of what is left above
+    // the noise; together they take it down to the noise.
+    let mut truth = Truth::new(Vec::new(), 2);
+    truth.skin_known = true;
+    let (_, d) = diagnosed(&truth);
+    for form in ["sand_rise", "skin_shape"] {
+        assert!(d.selected.iter().any(|s| s == form), "{:?}", d.selected);
+    }
+    assert!(effects(&d).is_empty(), "{:?}", d.selected);
+    assert!(
+        d.final_rmse_kpa <= 1.5 * d.noise_floor_kpa,
+        "{} vs {}",
+        d.final_rmse_kpa,
+        d.noise_floor_kpa
+    );
+}
+
+#[test]
 fn an_outside_line_loss_is_named_within_15_percent() {
     for skin_known in [false, true] {
         let mut truth = Truth::new(vec![Hidden::LineLoss(0.3)], 1);
