@@ -167,6 +167,7 @@ fn info() -> Info {
         pressure_zero_kpa: f32::NAN,
         state: State::Fault,
         fault: Some(Fault::LinkLoss),
+        alarm: Some(Fault::SensorStale),
         last_fault: Some(Fault::LinkLoss),
         last_fault_ms: u32::MAX,
         uptime_ms: u32::MAX,

@@ -101,6 +101,103 @@ pub enum Command {
         /// Experiment folder.
         exp: PathBuf,
     },
+    /// Drive a board over its serial link: the NUCLEO's ST-LINK virtual
+    /// COM port (found by its USB ids), or a virtual board's
+    /// pseudo-terminal with --port.
+    Board(BoardArgs),
+    /// The firmware's own board tasks on this computer, against the
+    /// emulated plant, over a pseudo-terminal: prints `port: PATH` and
+    /// serves until stopped (Ctrl-C).
+    VirtualBoard(VirtualBoardArgs),
+}
+
+/// `host-sim board`.
+#[derive(Args)]
+pub struct BoardArgs {
+    /// Serial port of the board; default: the ST-LINK virtual COM port.
+    #[arg(long, global = true)]
+    pub port: Option<String>,
+    /// What to do.
+    #[command(subcommand)]
+    pub action: BoardAction,
+}
+
+/// `host-sim board` subcommands.
+#[derive(Subcommand)]
+pub enum BoardAction {
+    /// Firmware, protocol and table versions, the table's CRC and where it
+    /// came from, the pressure zero, state, faults, parameters.
+    Info,
+    /// The controller's parameter set as TOML.
+    Params {
+        /// Get or set.
+        #[command(subcommand)]
+        action: ParamsAction,
+    },
+    /// Start a run of N cycles and record it into an experiment folder,
+    /// with a live status line; Ctrl-C stops the board first and keeps
+    /// the data as DIR.partial.
+    Run {
+        /// Cycles to run (at least 1).
+        #[arg(long)]
+        cycles: u16,
+        /// Sand cover above the actuator axis (mm).
+        #[arg(long = "depth-mm")]
+        depth_mm: f32,
+        /// The set-up (rig.toml), copied into the folder.
+        #[arg(long)]
+        rig: PathBuf,
+        /// Experiment folder to create.
+        #[arg(long)]
+        out: PathBuf,
+        /// Run id in the folder.
+        #[arg(long, default_value = "board")]
+        run_id: String,
+    },
+    /// Stop the cycle safely (shrink back to rest, then Idle).
+    Stop,
+    /// Clear a latched fault (refused while its cause is present).
+    Reset,
+    /// Take the pressure zero now (head at rest in free water); stored on
+    /// the board.
+    Tare,
+    /// Put a table image (`host-sim tables --image FILE`) on the board; it
+    /// is used from the board's next boot.
+    PushTable {
+        /// The image.
+        file: PathBuf,
+    },
+}
+
+/// `host-sim board params`.
+#[derive(Subcommand)]
+pub enum ParamsAction {
+    /// Print the parameters (or write them to --out).
+    Get {
+        /// TOML file to write.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Replace the whole parameter set from a TOML file.
+    Set {
+        /// The TOML file (as `params get` writes it).
+        file: PathBuf,
+    },
+}
+
+/// `host-sim virtual-board`.
+#[derive(Args)]
+pub struct VirtualBoardArgs {
+    /// An emulator scenario's plant and injected faults (`host-sim
+    /// emulate --list`); default: the paper's actuator, healthy.
+    #[arg(long)]
+    pub scenario: Option<String>,
+    /// Sand cover above the actuator axis (mm) without a scenario.
+    #[arg(long = "depth-mm", default_value_t = 40.0)]
+    pub depth_mm: f64,
+    /// Seed of the plant's random draws.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
 }
 
 /// `host-sim tables`.
@@ -125,6 +222,11 @@ pub struct TablesArgs {
     /// under --repo.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also write the table as a binary image for `host-sim board
+    /// push-table` (the board stores it in flash and uses it from its next
+    /// boot).
+    #[arg(long)]
+    image: Option<PathBuf>,
 }
 
 impl TablesArgs {
@@ -135,6 +237,7 @@ impl TablesArgs {
             check: self.check,
             rig: self.rig.zip(self.solver_sand),
             out: self.out,
+            image: self.image,
         }
     }
 }

@@ -3,6 +3,7 @@
 //! printing of what it returns.
 
 mod args;
+mod board;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -59,6 +60,8 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Diagnose { exp, json, add } => diagnose(&exp, json, add.as_deref()),
+        Command::Board(a) => board::board(a),
+        Command::VirtualBoard(a) => board::virtual_board(a),
         Command::Ledger { exp } => {
             let (entries, svg) = workbench::commands::ledger(&exp)?;
             print!("{}", workbench::commands::ledger_text(&entries));

@@ -284,6 +284,9 @@ pub struct Info {
     pub state: State,
     /// Latched fault, if any.
     pub fault: Option<Fault>,
+    /// A monitored condition present now, latched or not (in Idle: why
+    /// `Start` answers `CauseActive`).
+    pub alarm: Option<Fault>,
     /// The last fault latched since boot (kept after `Reset`): its cause.
     pub last_fault: Option<Fault>,
     /// When it latched (ms since boot).

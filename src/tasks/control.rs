@@ -200,6 +200,7 @@ pub fn info(controller: &Controller<'_>, shared: &Shared, boot: &BootInfo, now: 
         pressure_zero_kpa: controller.pressure_zero_kpa().unwrap_or(f32::NAN),
         state: controller.state(),
         fault: controller.fault(),
+        alarm: controller.alarm(),
         last_fault,
         last_fault_ms,
         uptime_ms: now,

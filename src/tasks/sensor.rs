@@ -123,8 +123,8 @@ pub async fn run<I2C: I2c, F: NorFlash>(
                 Ok(()) => DeviceMessage::Ack { seq },
                 Err(e) => DeviceMessage::nack(seq, NackReason::Tare(e)),
             });
+            // The samples went stale during the tare: a fresh one now.
             ticker.reset();
-            continue;
         }
         let zero = shared.zero_kpa().unwrap_or(STANDARD_ATMOSPHERE_KPA);
         let sample = match bounded(READ_TIMEOUT_MS, sensor.read(&mut delay)).await {

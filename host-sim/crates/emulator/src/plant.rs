@@ -337,6 +337,36 @@ impl Plant {
         self.advance_on = outputs.advance_drive;
     }
 
+    /// One microstep of the pump driven by its STEP pin (the virtual
+    /// board; the pump's own command stays `Disable` there, so only pulses
+    /// move it). False when refused at an end-stop.
+    pub fn pulse(&mut self, direction: urechis::drivers::pump::Direction) -> bool {
+        self.pump.pulse(direction)
+    }
+
+    /// Sets the relief valve and the advance drive from their pins.
+    pub fn set_outputs(&mut self, valve_open: bool, advance_on: bool) {
+        self.valve_open = valve_open;
+        self.advance_on = advance_on;
+    }
+
+    /// Runs the plant in 1 ms sub-steps up to `t_ms` (at most `max_ms`
+    /// of them; later ones are skipped, as after a stalled host).
+    pub fn advance_to(&mut self, t_ms: u32, max_ms: u32) {
+        if t_ms.wrapping_sub(self.t_ms) > max_ms {
+            self.t_ms = t_ms.wrapping_sub(max_ms);
+        }
+        while self.t_ms < t_ms {
+            let t0 = self.t_ms;
+            self.substep(t0, t0 + SUBSTEP_MS);
+        }
+    }
+
+    /// The injected sensor failure in force, if any.
+    pub fn sensor_fault(&self) -> Option<SensorFault> {
+        self.sensor.fault()
+    }
+
     /// The pump command in force.
     pub fn pump_command(&self) -> PumpCommand {
         self.pump.command()

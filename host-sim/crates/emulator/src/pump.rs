@@ -142,6 +142,13 @@ impl StepperPump {
         counted
     }
 
+    /// One microstep driven from outside (a STEP pulse with DIR set for
+    /// `direction`), as the virtual board's pins deliver it; false when
+    /// refused (end-stop ahead closed).
+    pub fn pulse(&mut self, direction: Direction) -> bool {
+        self.step(direction)
+    }
+
     /// One microstep; false when refused (end-stop ahead closed).
     fn step(&mut self, direction: Direction) -> bool {
         let stops = self.end_stops();

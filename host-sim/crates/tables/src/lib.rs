@@ -291,6 +291,9 @@ pub struct TablesSettings {
     pub rig: Option<(PathBuf, PathBuf)>,
     /// File to write; default: [`GENERATED_PATH`] under `repo`.
     pub out: Option<PathBuf>,
+    /// Also write the table as a binary image
+    /// ([`urechis::table::image`]) for `host-sim board push-table`.
+    pub image: Option<PathBuf>,
 }
 
 /// What [`generate`] did.
@@ -331,11 +334,30 @@ pub fn generate(settings: &TablesSettings) -> Result<Generated> {
         ),
     };
     let (path, outcome) = regenerate_at(&out, &spec, &*model, settings.check, &command)?;
+    if let Some(image) = &settings.image {
+        let table = GeneratedTable::sample(&spec, &*model)?;
+        write_image(&table.as_table(), image)?;
+    }
     Ok(Generated {
         path,
         outcome,
         warnings,
     })
+}
+
+/// Writes `table` as a binary image (the firmware's
+/// [`urechis::table::image`] format, checked by reading it back) to `path`,
+/// atomically.
+pub fn write_image(table: &Table<'_>, path: &Path) -> Result<()> {
+    let mut bytes = Vec::new();
+    urechis::table::image::write_image(table, &mut |b| bytes.extend_from_slice(b));
+    urechis::table::image::TableBuf::parse(&bytes).map_err(|e| {
+        anyhow::anyhow!(
+            "the table does not make a valid image ({e:?}): at most {} numbers fit the board",
+            urechis::table::image::MAX_IMAGE_VALUES
+        )
+    })?;
+    datafile::write_atomic(path, &bytes)
 }
 
 /// Regenerates the table file under `repo_root`, or with `check` only

@@ -1,0 +1,387 @@
+//! The board's peripherals, simulated: the MS5837 answering its real
+//! command bytes on an I²C bus, the pump's STEP/DIR/ENABLE pins and
+//! end-stops wired to the emulated plant's syringe pump, the relief valve
+//! and advance drive, and the UART as a pseudo-terminal.
+
+use std::convert::Infallible;
+use std::io::Write;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::pipe::Pipe;
+use embassy_time::Timer;
+use embedded_hal::digital::{ErrorType as PinErrorType, InputPin, OutputPin};
+use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource, Operation};
+use embedded_hal_async::i2c::{ErrorType as I2cErrorType, I2c};
+use emulator::sensor::SensorFault;
+use emulator::Plant;
+use urechis::drivers::ms5837::{
+    compensate_raw, crc4, Calibration, Model, ADDRESS, CMD_ADC_READ, CMD_CONVERT_D1,
+    CMD_CONVERT_D2, CMD_PROM_READ, CMD_RESET,
+};
+use urechis::drivers::pump::Direction;
+use urechis::tasks::ControlIo;
+
+/// Everything the board's pins and bus touch, shared with the plant's
+/// clock thread.
+pub struct Rig {
+    /// The emulated plant.
+    pub plant: Plant,
+    /// The sensor's atmosphere (absolute kPa): what reads as zero gauge in
+    /// free water.
+    pub atmosphere_kpa: f64,
+    /// The sensor's RMS noise (kPa).
+    pub noise_kpa: f64,
+    /// STEP is high.
+    pub step_high: bool,
+    /// DIR is high.
+    pub dir_high: bool,
+    /// ENABLE is low (the driver is on).
+    pub enabled: bool,
+    /// DIR level that injects.
+    pub inject_dir_high: bool,
+    /// Relief valve open (not energised).
+    pub valve_open: bool,
+    /// Advance drive on.
+    pub advance_on: bool,
+    /// Microsteps the plant took from STEP pulses.
+    pub pulses: u64,
+    /// Times the watchdog was fed since boot.
+    pub watchdog_feeds: u64,
+}
+
+/// The rig behind a lock (the board thread and the plant thread share it).
+pub type SharedRig = Arc<Mutex<Rig>>;
+
+/// Locks the rig; a poisoned lock (a panicked thread) still holds a whole
+/// rig, so it is used as it is.
+pub fn lock(rig: &SharedRig) -> MutexGuard<'_, Rig> {
+    rig.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Which pump pin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PinRole {
+    /// STEP: a rising edge with the driver on moves one microstep.
+    Step,
+    /// DIR.
+    Dir,
+    /// ENABLE, active low.
+    Enable,
+}
+
+/// One of the pump driver's inputs.
+pub struct PumpPin {
+    rig: SharedRig,
+    role: PinRole,
+}
+
+impl PumpPin {
+    /// The pin `role` on `rig`.
+    pub fn new(rig: SharedRig, role: PinRole) -> Self {
+        Self { rig, role }
+    }
+
+    fn set(&mut self, high: bool) {
+        let mut r = lock(&self.rig);
+        match self.role {
+            PinRole::Step => {
+                let rising = high && !r.step_high;
+                r.step_high = high;
+                if rising && r.enabled {
+                    let direction = if r.dir_high == r.inject_dir_high {
+                        Direction::Inject
+                    } else {
+                        Direction::Withdraw
+                    };
+                    if r.plant.pulse(direction) {
+                        r.pulses += 1;
+                    }
+                }
+            }
+            PinRole::Dir => r.dir_high = high,
+            PinRole::Enable => r.enabled = !high,
+        }
+    }
+}
+
+impl PinErrorType for PumpPin {
+    type Error = Infallible;
+}
+
+impl OutputPin for PumpPin {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        self.set(false);
+        Ok(())
+    }
+
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        self.set(true);
+        Ok(())
+    }
+}
+
+/// An end-stop switch to GND with a pull-up: closed reads low.
+pub struct EndStopPin {
+    rig: SharedRig,
+    empty: bool,
+}
+
+impl EndStopPin {
+    /// The EMPTY (`empty`) or FULL switch of `rig`.
+    pub fn new(rig: SharedRig, empty: bool) -> Self {
+        Self { rig, empty }
+    }
+
+    fn closed(&self) -> bool {
+        let stops = lock(&self.rig).plant.end_stops();
+        if self.empty {
+            stops.empty
+        } else {
+            stops.full
+        }
+    }
+}
+
+impl PinErrorType for EndStopPin {
+    type Error = Infallible;
+}
+
+impl InputPin for EndStopPin {
+    fn is_high(&mut self) -> Result<bool, Infallible> {
+        Ok(!self.closed())
+    }
+
+    fn is_low(&mut self) -> Result<bool, Infallible> {
+        Ok(self.closed())
+    }
+}
+
+/// The relief valve, the advance drive and the watchdog.
+pub struct Outputs {
+    rig: SharedRig,
+}
+
+impl Outputs {
+    /// The outputs of `rig`.
+    pub fn new(rig: SharedRig) -> Self {
+        Self { rig }
+    }
+}
+
+impl ControlIo for Outputs {
+    fn set_relief_valve_open(&mut self, open: bool) {
+        lock(&self.rig).valve_open = open;
+    }
+
+    fn set_advance_drive(&mut self, on: bool) {
+        lock(&self.rig).advance_on = on;
+    }
+
+    fn start_watchdog(&mut self) {}
+
+    fn feed_watchdog(&mut self) {
+        lock(&self.rig).watchdog_feeds += 1;
+    }
+}
+
+/// The calibration words of the simulated part: the datasheet's example
+/// coefficients C1..C6 of the MS5837-02BA, factory bits 0x0340, and the
+/// CRC-4 the firmware checks.
+pub fn prom() -> [u16; 7] {
+    let mut p = [0x0340, 46372, 43981, 29059, 27842, 31553, 28165];
+    p[0] |= u16::from(crc4(&p)) << 12;
+    p
+}
+
+/// Why the simulated bus refused a transaction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BusFault;
+
+impl embedded_hal::i2c::Error for BusFault {
+    fn kind(&self) -> ErrorKind {
+        ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address)
+    }
+}
+
+/// An MS5837-02BA on an I²C bus: reset, PROM read, D1/D2 conversions and
+/// ADC read with the datasheet's command bytes. The temperature is held
+/// at 20.00 °C (D2 = C5·2⁸), the pressure is the plant's line pressure at
+/// the sensor plus the atmosphere and noise, turned into the D1 that the
+/// firmware's own compensation maps back to it (to the part's 1 Pa).
+pub struct Ms5837Sim {
+    rig: SharedRig,
+    prom: [u16; 7],
+    calibration: Calibration,
+    pointer: u8,
+    adc: u32,
+    last_d1: u32,
+    noise_state: u32,
+}
+
+impl Ms5837Sim {
+    /// The part on `rig`'s bus.
+    pub fn new(rig: SharedRig) -> Self {
+        let prom = prom();
+        // The PROM above carries its own CRC: it always parses.
+        let calibration = Calibration::from_prom(&prom).unwrap_or(Calibration {
+            factory: prom[0],
+            sens_t1: prom[1],
+            off_t1: prom[2],
+            tcs: prom[3],
+            tco: prom[4],
+            t_ref: prom[5],
+            tempsens: prom[6],
+        });
+        Self {
+            rig,
+            prom,
+            calibration,
+            pointer: CMD_RESET,
+            adc: 0,
+            last_d1: 0,
+            noise_state: 0x2545_F491,
+        }
+    }
+
+    fn d2(&self) -> u32 {
+        u32::from(self.calibration.t_ref) << 8
+    }
+
+    /// Uniform noise of RMS `rms` (kPa).
+    fn noise_kpa(&mut self, rms: f64) -> f64 {
+        let mut x = self.noise_state;
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        self.noise_state = x;
+        let u = f64::from(x) / f64::from(u32::MAX) * 2.0 - 1.0;
+        u * rms * 3f64.sqrt()
+    }
+
+    /// The D1 whose compensated pressure is `pa` (binary search on the
+    /// firmware's own compensation, increasing in D1).
+    fn d1_for(&self, pa: i64) -> u32 {
+        let d2 = self.d2();
+        // The ADC's 24 bits.
+        let (mut lo, mut hi) = (1u32, 0x00FF_FFFF);
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            let p = i64::from(compensate_raw(Model::Bar02, &self.calibration, mid, d2).pressure_pa);
+            if p < pa {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    }
+
+    fn convert_d1(&mut self, fault: Option<SensorFault>) -> u32 {
+        if fault == Some(SensorFault::Frozen) && self.last_d1 != 0 {
+            return self.last_d1;
+        }
+        let (sensed, atmosphere, rms) = {
+            let r = lock(&self.rig);
+            (r.plant.truth().sensed_kpa, r.atmosphere_kpa, r.noise_kpa)
+        };
+        let kpa = atmosphere + sensed + self.noise_kpa(rms);
+        let d1 = self.d1_for((kpa * 1000.0).round() as i64);
+        self.last_d1 = d1;
+        d1
+    }
+}
+
+impl I2cErrorType for Ms5837Sim {
+    type Error = BusFault;
+}
+
+impl I2c for Ms5837Sim {
+    async fn transaction(
+        &mut self,
+        address: u8,
+        operations: &mut [Operation<'_>],
+    ) -> Result<(), BusFault> {
+        let fault = lock(&self.rig).plant.sensor_fault();
+        match fault {
+            Some(SensorFault::Hang) => core::future::pending::<()>().await,
+            Some(SensorFault::Dropout) => return Err(BusFault),
+            _ => {}
+        }
+        if address != ADDRESS {
+            return Err(BusFault);
+        }
+        for op in operations.iter_mut() {
+            match op {
+                Operation::Write(bytes) => {
+                    let Some(&cmd) = bytes.first() else { continue };
+                    self.pointer = cmd;
+                    if cmd == CMD_RESET {
+                        self.adc = 0;
+                    } else if (CMD_CONVERT_D1..CMD_CONVERT_D1 + 10).contains(&cmd) {
+                        self.adc = self.convert_d1(fault);
+                    } else if (CMD_CONVERT_D2..CMD_CONVERT_D2 + 10).contains(&cmd) {
+                        self.adc = self.d2();
+                    }
+                }
+                Operation::Read(buf) => {
+                    if self.pointer == CMD_ADC_READ {
+                        let v = self.adc.to_be_bytes();
+                        for (b, v) in buf.iter_mut().zip(&v[1..]) {
+                            *b = *v;
+                        }
+                        // A second read without a conversion reads 0.
+                        self.adc = 0;
+                    } else if (CMD_PROM_READ..CMD_PROM_READ + 14).contains(&self.pointer) {
+                        let i = usize::from((self.pointer - CMD_PROM_READ) / 2);
+                        let w = self.prom.get(i).copied().unwrap_or(0).to_be_bytes();
+                        for (b, v) in buf.iter_mut().zip(&w) {
+                            *b = *v;
+                        }
+                    } else {
+                        buf.fill(0);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Bytes the host sent, on their way to the link's receive task.
+pub type RxPipe = Pipe<CriticalSectionRawMutex, 1024>;
+
+/// The UART's transmit side: frames go to the pseudo-terminal at the
+/// board's line rate (115200 baud, 10 bits a byte); bytes the host does
+/// not take within a few milliseconds are dropped, as a virtual COM port
+/// with nobody listening drops them.
+pub struct PtyTx {
+    port: Box<dyn serialport::SerialPort>,
+}
+
+impl PtyTx {
+    /// Transmits on `port` (the pseudo-terminal's master side).
+    pub fn new(port: Box<dyn serialport::SerialPort>) -> Self {
+        Self { port }
+    }
+}
+
+/// Microseconds one byte takes at 115200 baud, 8N1.
+pub const BYTE_US: u64 = 87;
+
+impl embedded_io_async::ErrorType for PtyTx {
+    type Error = Infallible;
+}
+
+impl embedded_io_async::Write for PtyTx {
+    async fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
+        // A full pseudo-terminal (nobody reading) times out: dropped.
+        let _ = self.port.write_all(buf);
+        Timer::after_micros(BYTE_US * buf.len() as u64).await;
+        Ok(buf.len())
+    }
+
+    async fn flush(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
