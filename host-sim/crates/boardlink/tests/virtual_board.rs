@@ -72,3 +72,137 @@ fn tare_then_link_loss_stops_the_cycle_safely() {
     let info = link.connect().unwrap();
     assert_eq!(info.last_fault, Some(Fault::LinkLoss));
 }
+
+/// A valid table image that is not the compiled-in table: the self-test
+/// law (fast-collapsing sand) on its own grid.
+fn other_table_image() -> (Vec<u8>, u32) {
+    let store = urechis::selftest::LawTable::new(urechis::selftest::SandLaw {
+        rise_mm: urechis::selftest::FAST_RISE_MM,
+    });
+    let table = store.table();
+    let mut bytes = Vec::new();
+    urechis::table::image::write_image(&table, &mut |b| bytes.extend_from_slice(b));
+    (bytes, table.checksum)
+}
+
+#[test]
+fn pushed_table_is_refused_when_corrupt_and_used_after_a_reboot() {
+    let (vb, mut link) = board();
+    link.connect().unwrap();
+    expect_ack(&mut link, HostCommand::Tare, 3000).unwrap();
+    let (good, checksum) = other_table_image();
+    assert_ne!(checksum, urechis::table::generated::TABLE.checksum);
+
+    // One value changed after the table's CRC was taken: the transfer is
+    // intact (its CRC-32 is computed over what is sent), the table is not.
+    let mut bad = good.clone();
+    let at = urechis::table::image::HEADER_BYTES + 4 * 20;
+    bad[at] ^= 0x01;
+    let err = boardlink::push_table(&mut link, &bad, &mut |_, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("refused the table") && err.contains("Checksum"),
+        "{err}"
+    );
+    vb.reboot().unwrap();
+    let info = link.connect().unwrap();
+    assert_eq!(info.table_source, TableSource::CompiledIn);
+    assert_eq!(info.stored_table, StoredTable::Absent);
+
+    let mut sent = 0;
+    boardlink::push_table(&mut link, &good, &mut |s, _| sent = s).unwrap();
+    assert_eq!(sent, good.len());
+    // In use from the next boot only.
+    assert_eq!(
+        link.connect().unwrap().table_source,
+        TableSource::CompiledIn
+    );
+    vb.reboot().unwrap();
+    let info = link.connect().unwrap();
+    assert_eq!(info.table_source, TableSource::Uploaded);
+    assert_eq!(info.stored_table, StoredTable::Valid);
+    assert_eq!(info.table_checksum, checksum);
+    assert!(link.hello().is_some_and(|h| h.table_checksum == checksum));
+    // The zero survived the reboot too.
+    assert!((info.pressure_zero_kpa - 101.325).abs() < 0.5);
+}
+
+fn rig_file(dir: &std::path::Path) -> std::path::PathBuf {
+    let path = dir.join("my-rig.toml");
+    std::fs::write(&path, rig::Rig::paper_default().to_toml().unwrap()).unwrap();
+    path
+}
+
+#[test]
+fn a_recorded_run_and_a_fault_scenario() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = rig_file(dir.path());
+    let stop = std::sync::atomic::AtomicBool::new(false);
+
+    // A healthy run of one cycle, recorded.
+    let (_vb, mut link) = board();
+    link.connect().unwrap();
+    expect_ack(&mut link, HostCommand::Tare, 3000).unwrap();
+    let out = dir.path().join("healthy");
+    let mut shown = 0;
+    let outcome = boardlink::run(
+        &mut link,
+        &boardlink::RunOptions {
+            cycles: 1,
+            depth_mm: 40.0,
+            rig: rig.clone(),
+            out: out.clone(),
+            run_id: "r".into(),
+        },
+        &stop,
+        &mut |_| shown += 1,
+    )
+    .unwrap();
+    assert_eq!(
+        (outcome.fault, outcome.cycles, outcome.partial),
+        (None, 1, false)
+    );
+    assert_eq!(outcome.folder, out);
+    assert_eq!(shown, outcome.samples);
+    let exp = rig::Experiment::read(&out).unwrap();
+    assert_eq!(exp.runs.len(), 1);
+    assert_eq!(exp.runs[0].samples.len(), outcome.samples);
+    let peak = exp.runs[0]
+        .samples
+        .iter()
+        .map(|s| s.pressure_kpa)
+        .fold(0.0, f64::max);
+    assert!(peak > 1.0, "a head expanding in sand at 40 mm: {peak} kPa");
+
+    // The sensor drops off the bus mid-expansion: the board latches
+    // SensorBus, the host reports it and keeps the data.
+    let scenario = emulator::named("sensor_dropout").unwrap();
+    let vb = VirtualBoard::start(&Options {
+        scenario: Some(scenario),
+        ..Options::default()
+    })
+    .unwrap();
+    let mut link = Link::open(vb.port()).unwrap();
+    link.connect().unwrap();
+    expect_ack(&mut link, HostCommand::Tare, 3000).unwrap();
+    let out = dir.path().join("dropout");
+    let outcome = boardlink::run(
+        &mut link,
+        &boardlink::RunOptions {
+            cycles: 1,
+            depth_mm: 40.0,
+            rig,
+            out: out.clone(),
+            run_id: "r".into(),
+        },
+        &stop,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(outcome.fault, Some(Fault::SensorBus));
+    assert!(vb.outputs_safe());
+    assert!(rig::Experiment::read(&outcome.folder).is_ok());
+    let info = link.connect().unwrap();
+    assert_eq!(info.fault, Some(Fault::SensorBus));
+}
