@@ -8,7 +8,7 @@
 //!   [`refusal`]: what the subcommands print and read;
 //! - [`push_table`]: a table image (`host-sim tables --image`) onto the
 //!   board's flash;
-//! - [`run`]: a recorded run into an experiment folder.
+//! - [`run()`]: a recorded run into an experiment folder.
 
 pub mod link;
 pub mod run;
