@@ -16,7 +16,7 @@
 //!   force. When the area is full it is erased and the log starts again.
 //!
 //! On the NUCLEO-F446RE the areas are sectors 6 and 7 (128 KiB each,
-//! `0x0804_0000` and `0x0806_0000`): `memory.x` gives the linker only the
+//! `0x0804_0000` and `0x0806_0000`): `src/board/memory.x` gives the linker only the
 //! first 256 KiB, so code can never be placed there ([`BOARD_LAYOUT`]).
 
 use embedded_storage::nor_flash::NorFlash;

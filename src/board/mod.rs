@@ -27,7 +27,7 @@
 //! # Flash
 //!
 //! Sectors 6 and 7 (`0x0804_0000`–`0x0807_FFFF`) hold the store
-//! ([`crate::store::BOARD_LAYOUT`]); `memory.x` gives the linker only the
+//! ([`crate::store::BOARD_LAYOUT`]); `src/board/memory.x` gives the linker only the
 //! first 256 KiB. An erase stalls the CPU for up to a few seconds (128 KiB
 //! sector, RM0390 §3.5): [`BoardFlash`] widens the independent watchdog to
 //! its longest period around each erase and restores it afterwards. Erases
