@@ -198,6 +198,11 @@ pub struct VirtualBoardArgs {
     /// Seed of the plant's random draws.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Run the board's clock this many times faster than wall time (1 to
+    /// 10; 1 = the board's real timing; 2 keeps every deadline on a loaded
+    /// 2-core machine, faster ones need a faster host).
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
 }
 
 /// `host-sim tables`.

@@ -159,6 +159,7 @@ pub fn virtual_board(a: VirtualBoardArgs) -> Result<()> {
         scenario,
         depth_mm: a.depth_mm,
         seed: a.seed,
+        speed: a.speed,
     })?;
     println!("port: {}", vb.port());
     std::io::stdout().flush().context("writing to stdout")?;

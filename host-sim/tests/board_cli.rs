@@ -185,3 +185,34 @@ fn a_fault_on_the_virtual_board_is_reported_with_its_cause() {
         "{info}"
     );
 }
+
+#[test]
+fn the_virtual_board_runs_faster_on_request() {
+    let dir = tempfile::tempdir().unwrap();
+    let vb = VirtualBoard::start(&["--speed", "2"]);
+    ok(&vb.board(&["tare"]));
+    let rig = write_rig(dir.path());
+    let out = dir.path().join("fast");
+    let started = std::time::Instant::now();
+    ok(&vb.board(&[
+        "run",
+        "--cycles",
+        "2",
+        "--depth-mm",
+        "40",
+        "--rig",
+        rig.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let wall_s = started.elapsed().as_secs_f64();
+    let exp = rig::Experiment::read(&out).unwrap();
+    let board_s = exp.runs[0].samples.last().unwrap().t_s;
+    // Two cycles of about 4 s of board time each, at twice the wall clock
+    // (the host tool's own start-up and the tare are in the wall time).
+    assert!(board_s > 6.0, "{board_s} s of board time");
+    assert!(
+        wall_s < board_s / 1.5,
+        "{wall_s:.1} s of wall time for {board_s:.1} s of board time"
+    );
+}

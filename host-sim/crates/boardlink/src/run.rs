@@ -8,7 +8,7 @@
 //! conversion) and the folder renamed to `DIR` in one step. A run that is
 //! interrupted (Ctrl-C, a lost link) is converted as far as it got and
 //! stays named `DIR.partial`. Ctrl-C sends `Stop` first and records the
-//! shrink back to rest.
+//! shrink back to rest. A heartbeat goes out every [`HEARTBEAT_MS`].
 
 use std::fs::{File, OpenOptions};
 use std::io::Write;
@@ -23,9 +23,10 @@ use urechis::protocol::{encode_device, DeviceMessage, HostCommand, MAX_FRAME};
 use crate::link::{Link, REPLY_TIMEOUT_MS};
 use crate::{expect_ack, refusal};
 
-/// The host's heartbeat period while a run goes on (ms): four per default
-/// link timeout.
-pub const HEARTBEAT_MS: u64 = 500;
+/// The host's heartbeat period while a run goes on (ms of wall time):
+/// twenty per default link timeout, so that a virtual board running up
+/// to 10× faster than wall time still hears the host twice per timeout.
+pub const HEARTBEAT_MS: u64 = 100;
 
 /// Longest silence of the telemetry stream before the run counts as lost
 /// (ms).

@@ -17,13 +17,16 @@
 //!   ([`urechis::store::RamFlash`]) that survives a [`VirtualBoard::reboot`];
 //! - the **UART** is a pseudo-terminal, paced at 115200 baud.
 //!
-//! The clock is embassy-time's std driver: the board runs in step with
-//! wall time, so a host tool sees the board's real timing. The tasks run
-//! on one thread, polled together by a small executor that sleeps until a
-//! waker fires (the board runs them as five embassy tasks on one core).
+//! The clock ([`clock`]) runs in step with wall time by default, so a host
+//! tool sees the board's real timing, and up to [`clock::MAX_SPEED`] times
+//! faster on request ([`Options::speed`]; one speed per process). Each
+//! task runs on a thread of its own under a small executor that sleeps
+//! until a waker fires (the board runs them as five embassy tasks on one
+//! core; here, as there, a task is polled only when it was woken).
 //! The plant advances in 1 ms sub-steps on a thread of its own, following
 //! the same clock.
 
+pub mod clock;
 pub mod peripherals;
 
 use std::future::Future;
@@ -35,7 +38,6 @@ use std::thread::{self, JoinHandle, Thread};
 use std::time::Duration;
 
 use anyhow::{anyhow, Context as _, Result};
-use embassy_futures::join::join5;
 use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::mutex::Mutex as AsyncMutex;
@@ -78,6 +80,8 @@ pub struct Options {
     pub depth_mm: f64,
     /// Seed of the plant's random draws.
     pub seed: u64,
+    /// Board seconds per wall second (1 = real time; see [`clock`]).
+    pub speed: f64,
 }
 
 impl Default for Options {
@@ -86,6 +90,7 @@ impl Default for Options {
             scenario: None,
             depth_mm: 40.0,
             seed: 1,
+            speed: 1.0,
         }
     }
 }
@@ -120,6 +125,7 @@ impl VirtualBoard {
     /// Creates the pseudo-terminal, the plant and the flash, and boots the
     /// board on threads of its own.
     pub fn start(options: &Options) -> Result<VirtualBoard> {
+        clock::set_speed(options.speed)?;
         let (config, depth_mm, injections) = match &options.scenario {
             Some(s) => (s.plant.clone(), s.depth_mm, s.injections.clone()),
             None => (PlantConfig::paper(), options.depth_mm, Vec::new()),
@@ -390,25 +396,69 @@ fn boot(
     let hello = Hello::new(&table);
     match SyringePump::new(pins, PumpConfig::default()) {
         Ok(pump) => {
-            let board = join5(
-                async { tasks::sensor::run(sensor, &shared, &store).await },
-                async { tasks::pump::run(pump, &shared).await },
-                async { tasks::control::run(controller, &mut outputs, &shared, boot).await },
-                async { tasks::link::rx(&control.rx, &shared, &store).await },
-                async { tasks::link::tx(&mut tx, &shared, hello).await },
-            );
-            let watch = async {
-                loop {
-                    let i = State::ALL
-                        .iter()
-                        .position(|s| *s == shared.state())
-                        .unwrap_or(0);
-                    control.state.store(i as u8, Ordering::Relaxed);
-                    embassy_time::Timer::after_millis(5).await;
-                }
-            };
-            control.boots.fetch_add(1, Ordering::Relaxed);
-            block_on(select(join(board, watch), control.wake.wait()));
+            // One thread per task, as the board's executor polls only the
+            // task that was woken: the pump's microsteps do not hold up
+            // the sensor's deadlines. They share only `Shared` and the
+            // store, as on the board.
+            let running = AtomicBool::new(true);
+            let (shared, store, running) = (&shared, &store, &running);
+            let outputs = &mut outputs;
+            let tx = &mut tx;
+            thread::scope(|s| {
+                s.spawn(move || {
+                    block_on(select(
+                        async {
+                            tasks::sensor::run(sensor, shared, store).await;
+                        },
+                        until_reset(running),
+                    ))
+                });
+                s.spawn(move || {
+                    block_on(select(
+                        async {
+                            tasks::pump::run(pump, shared).await;
+                        },
+                        until_reset(running),
+                    ))
+                });
+                s.spawn(move || {
+                    block_on(select(
+                        async {
+                            tasks::control::run(controller, outputs, shared, boot).await;
+                        },
+                        until_reset(running),
+                    ))
+                });
+                s.spawn(move || {
+                    block_on(select(
+                        async {
+                            tasks::link::rx(&control.rx, shared, store).await;
+                        },
+                        until_reset(running),
+                    ))
+                });
+                s.spawn(move || {
+                    block_on(select(
+                        async {
+                            tasks::link::tx(tx, shared, hello).await;
+                        },
+                        until_reset(running),
+                    ))
+                });
+                let watch = async {
+                    loop {
+                        let i = State::ALL
+                            .iter()
+                            .position(|st| *st == shared.state())
+                            .unwrap_or(0);
+                        control.state.store(i as u8, Ordering::Relaxed);
+                        embassy_time::Timer::after_millis(5).await;
+                    }
+                };
+                control.boots.fetch_add(1, Ordering::Relaxed);
+                block_on(select(watch, control.wake.wait()));
+                running.store(false, Ordering::Relaxed);
+            });
         }
         // The default configuration is valid; were it not, the board
         // would sit without tasks until the next reset.
@@ -420,9 +470,12 @@ fn boot(
     (store.into_inner().into_flash(), tx)
 }
 
-/// Both futures, polled together.
-async fn join<A: Future, B: Future>(a: A, b: B) {
-    embassy_futures::join::join(a, b).await;
+/// Ends when `running` goes false (a reset), looking every 5 ms of board
+/// time.
+async fn until_reset(running: &AtomicBool) {
+    while running.load(Ordering::Relaxed) {
+        embassy_time::Timer::after_millis(5).await;
+    }
 }
 
 /// Unparks the thread that polls.
