@@ -61,6 +61,12 @@ pub enum Command {
     /// runs `simulate` at each depth (default grain radius, no VTK), bins the
     /// sand's share of p_i over D and writes host-sim/data/sand/solver-pe.csv.
     SolverSand(SolverSandArgs),
+    /// The code-to-code cavity benchmark (shared/cavity): a rigid cylinder,
+    /// periodic along its axis, expanding from 18.7 to 25 mm in a settled
+    /// bed. Writes pe.csv (p_e per 1 % of the expansion, the at-rest value
+    /// as percent 0), pe.svg and summary.json; with --peer-avg, LAMMPS'
+    /// averages of the same problem beside ours in comparison.csv.
+    Cavity(CavityArgs),
     /// Benchmarks (`bench dem`: the DEM throughput problem of shared/bench).
     Bench {
         /// Which benchmark.
@@ -488,7 +494,25 @@ pub struct BalloonArgs {
     pub out: PathBuf,
 }
 
-/// `host-sim solver-sand`.
+/// `host-sim cavity` arguments.
+#[derive(Args)]
+pub struct CavityArgs {
+    /// The settled bed (`id,x,y,z,radius` in m), e.g. shared/cavity/bed_h40.csv.
+    #[arg(long)]
+    pub bed: PathBuf,
+    /// Duration of the expansion (s): 1 or 2 in the shared problem.
+    #[arg(long, default_value_t = 1.0)]
+    pub expansion_s: f64,
+    /// Folder for the results.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// LAMMPS' `fix ave/time` output of in.expand for the same bed and
+    /// duration (avg_TAG_segN.dat; every segment, in any order).
+    #[arg(long, num_args = 1..)]
+    pub peer_avg: Vec<PathBuf>,
+}
+
+/// `host-sim solver-sand` arguments.
 #[derive(Args)]
 pub struct SolverSandArgs {
     /// The shorter solver case (`simulate --quick`).

@@ -36,6 +36,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Simulate(a) => simulate(a.settings()),
         Command::Balloon(a) => balloon(a),
         Command::SolverSand(a) => solver_sand(a),
+        Command::Cavity(a) => cavity(a),
         Command::Bench {
             what:
                 BenchCommand::Dem {
@@ -153,6 +154,55 @@ fn balloon(a: args::BalloonArgs) -> Result<()> {
         note(&opts.spec(h)?.1);
     }
     print!("{}", run(&opts)?.text());
+    println!("wrote {}", a.out.display());
+    Ok(())
+}
+
+fn cavity(a: args::CavityArgs) -> Result<()> {
+    let problem = cavity::Cavity::default();
+    let bed = cavity::Bed::read(&a.bed)?;
+    let schedule = cavity::Schedule::new(a.expansion_s, problem.relax_s, problem.dt_s)?;
+    let peer = if a.peer_avg.is_empty() {
+        None
+    } else {
+        let paths: Vec<&std::path::Path> = a.peer_avg.iter().map(|p| p.as_path()).collect();
+        Some(cavity::Curve::from_lammps(&paths, &schedule, &problem)?)
+    };
+    let started = std::time::Instant::now();
+    let ours = cavity::run_with_progress(&problem, &bed, a.expansion_s)?;
+    let info = cavity::RunInfo {
+        bed: a.bed.display().to_string(),
+        spheres: bed.len(),
+        expansion_s: a.expansion_s,
+        window_steps: schedule.window_steps,
+        start_step: schedule.start_step,
+        end_step: schedule.end_step(),
+        wall_s: started.elapsed().as_secs_f64(),
+        workers: rayon::current_num_threads(),
+    };
+    let comparison = cavity::write_report(&a.out, &info, &ours, peer.as_ref())?;
+    println!(
+        "{} spheres, {} steps in {:.1} s ({:.2} M particle-steps/s); p_e at rest {:.4} kPa, at 100 % {:.4} kPa",
+        bed.len(),
+        schedule.end_step(),
+        info.wall_s,
+        bed.len() as f64 * schedule.end_step() as f64 / info.wall_s / 1e6,
+        ours.at_rest_kpa,
+        ours.expansion.last().map_or(f64::NAN, |w| w.pe_kpa)
+    );
+    if let Some(c) = comparison {
+        println!("percent  D (mm)  ours (kPa)  LAMMPS (kPa)  difference");
+        for r in &c.rows {
+            println!(
+                "{:>7}  {:>6.3}  {:>10.4}  {:>12.4}  {:>+9.1} %",
+                r.percent, r.d_mm, r.ours_kpa, r.peer_kpa, r.difference_percent
+            );
+        }
+        println!(
+            "largest difference over the expansion: {:.1} %",
+            c.worst_percent
+        );
+    }
     println!("wrote {}", a.out.display());
     Ok(())
 }

@@ -17,6 +17,7 @@ use super::contact::{
 };
 use super::neighbour::NeighbourList;
 use super::particles::{Packed, Particles, Sphere};
+use super::periodic::Images;
 use super::walls::{Wall, WallShape};
 use super::{split_lengths, Params};
 
@@ -33,18 +34,20 @@ const BLOCKS_PER_WORKER: usize = 1;
 /// ≈ 25 ns against ≈ 5 ns); only the first split of a run relies on it.
 const TOUCHING_WEIGHT: f64 = 5.0;
 
-/// Whether the spheres i and j overlap.
+/// Whether the spheres i and j overlap (j at its nearest image).
 #[inline(always)]
-fn overlapping(p: &[Sphere], i: usize, j: usize) -> bool {
-    p[i].overlaps(&p[j])
+fn overlapping(p: &[Sphere], i: usize, j: usize, images: &Images) -> bool {
+    p[i].overlaps_in(&p[j], images)
 }
 
-/// Geometry of the overlapping pairs (i[l], j[l]), one per lane.
+/// Geometry of the overlapping pairs (i[l], j[l]), one per lane, each j
+/// at its nearest image.
 #[inline(always)]
 fn pair_geometry_lanes(
     p: &Packed,
     i: &[usize; LANE_COUNT],
     j: &[usize; LANE_COUNT],
+    images: &Images,
 ) -> ContactGeometry<Lanes> {
     let row = |k: &[usize; LANE_COUNT]| {
         (
@@ -62,8 +65,18 @@ fn pair_geometry_lanes(
         )
     };
     let fourth = |q: &[&[f64; 4]; LANE_COUNT]| Lanes(q.map(|q| q[3]));
+    let mut xj_m = vec(&xj);
+    if images.any() {
+        for l in 0..LANE_COUNT {
+            let d = [0, 1, 2].map(|a| xj[l][a] - xi[l][a]);
+            let shift = images.shift(d);
+            for (a, s) in shift.iter().enumerate() {
+                xj_m[a].0[l] += s;
+            }
+        }
+    }
     ContactGeometry::spheres(
-        [&vec(&xi), &vec(&xj)],
+        [&vec(&xi), &xj_m],
         [&vec(&vi), &vec(&vj)],
         [&vec(&wi), &vec(&wj)],
         [fourth(&xi), fourth(&xj)],
@@ -102,11 +115,17 @@ impl<'a> PairRun<'a> {
     /// returning how many; pairs apart are marked closed. No branch on the
     /// outcome: which pairs touch is a coin toss to the branch predictor.
     #[inline(always)]
-    fn sort_out(&mut self, p: &[Sphere], slots: &[u32], touching: &mut [u32; PAIR_CHUNK]) -> usize {
+    fn sort_out(
+        &mut self,
+        p: &[Sphere],
+        images: &Images,
+        slots: &[u32],
+        touching: &mut [u32; PAIR_CHUNK],
+    ) -> usize {
         let mut count = 0;
         for (n, &s) in slots.iter().enumerate() {
             let s = s as usize;
-            let on = overlapping(p, self.pi[s] as usize, self.pj[s] as usize);
+            let on = overlapping(p, self.pi[s] as usize, self.pj[s] as usize, images);
             touching[count] = n as u32;
             count += usize::from(on);
             self.open[s] &= u8::from(on);
@@ -119,9 +138,11 @@ impl<'a> PairRun<'a> {
     /// history starts from zero. The last batch repeats its last pair (the
     /// same history in, the same values out).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn evaluate(
         &mut self,
         p: &Packed,
+        images: &Images,
         model: &ContactModel,
         dt_s: f64,
         slots: &[u32],
@@ -135,7 +156,7 @@ impl<'a> PairRun<'a> {
                 std::array::from_fn(|l| slots[which[(first + l).min(last)] as usize] as usize);
             let i = batch.map(|s| self.pi[s] as usize);
             let j = batch.map(|s| self.pj[s] as usize);
-            let g = pair_geometry_lanes(p, &i, &j);
+            let g = pair_geometry_lanes(p, &i, &j, images);
             // Plain loops: the `array::from_fn` form was left out of line
             // (a call per history component, outside the AVX2 copy).
             let mut h = [zero; HISTORY_LEN];
@@ -375,6 +396,7 @@ pub fn use_simd(level: Simd) -> Simd {
 struct Inputs<'a> {
     p: &'a Particles,
     packed: &'a Packed,
+    images: &'a Images,
     model: &'a ContactModel,
     dt_s: f64,
     body_accel: Vector3<f64>,
@@ -412,11 +434,11 @@ impl PairRun<'_> {
                 *s = k - k0 as u32;
             }
             let slots = &slots[..chunk.len()];
-            let count = self.sort_out(&x.packed.sphere, slots, &mut touching);
+            let count = self.sort_out(&x.packed.sphere, x.images, slots, &mut touching);
             out.fill(ContactForce::default());
             let which = &touching[..count];
             let mut w = 0;
-            self.evaluate(x.packed, x.model, x.dt_s, slots, which, |cf| {
+            self.evaluate(x.packed, x.images, x.model, x.dt_s, slots, which, |cf| {
                 out[which[w] as usize] = cf;
                 w += 1;
             });
@@ -472,7 +494,7 @@ impl PairRun<'_> {
                 *s = (s0 + n) as u32;
             }
             let slots = &slots[..m];
-            let count = self.sort_out(&x.packed.sphere, slots, &mut touching);
+            let count = self.sort_out(&x.packed.sphere, x.images, slots, &mut touching);
             let (mut n_inside, mut n_outside) = (0, 0);
             for &w in &touching[..count] {
                 let is_inside = (pj[slots[w as usize] as usize] as usize) < hi;
@@ -486,7 +508,7 @@ impl PairRun<'_> {
             // order as if the pairs were taken one by one.
             let which = &inside[..n_inside];
             let mut next = 0;
-            self.evaluate(x.packed, x.model, x.dt_s, slots, which, |cf| {
+            self.evaluate(x.packed, x.images, x.model, x.dt_s, slots, which, |cf| {
                 let s = slots[which[next] as usize] as usize;
                 next += 1;
                 let (i, j) = (pi[s] as usize, pj[s] as usize);
@@ -540,6 +562,7 @@ pub(crate) fn pair_forces(
     list: &mut NeighbourList,
     blocks: &mut Blocks,
     packed: &Packed,
+    images: &Images,
 ) {
     let simd = simd();
     blocks.split(list, rayon::current_num_threads() * BLOCKS_PER_WORKER);
@@ -560,6 +583,7 @@ pub(crate) fn pair_forces(
     let mut x = Inputs {
         p,
         packed,
+        images,
         model: &params.pair_model,
         dt_s: params.dt_s,
         body_accel: params.gravity_m_s2 * params.buoyancy_factor(),
@@ -642,7 +666,7 @@ fn wall_geometry(p: &Particles, i: usize, wall: &Wall) -> Option<ContactGeometry
         overlap,
         r,
         p.mass_kg[i],
-        p.velocity_m_s[i] - wall.velocity_m_s,
+        p.velocity_m_s[i] - wall.velocity_m_s - n * wall.normal_velocity_m_s,
         p.angular_velocity_rad_s[i],
     ))
 }
@@ -665,6 +689,7 @@ struct WallOut<'a> {
     wh: &'a mut [History],
     mask: &'a mut [u64],
     wp: &'a mut [Vector3<f64>],
+    wn: &'a mut [f64],
 }
 
 /// The touching contacts of one wall gathered for a four-lane evaluation.
@@ -681,10 +706,19 @@ impl WallChunk<'_> {
     /// `out.wp[w]` sums wall w's reaction in particle order.
     #[inline(always)]
     fn run(&self, out: WallOut) {
-        let WallOut { f, t, wh, mask, wp } = out;
+        let WallOut {
+            f,
+            t,
+            wh,
+            mask,
+            wp,
+            wn,
+        } = out;
         let params = self.params;
         let stride = params.walls.len().max(1);
         wp.iter_mut().for_each(|w| *w = Vector3::zeros());
+        wn.iter_mut().for_each(|w| *w = 0.0);
+        let mut sums = (wp, wn);
         // The walls each candidate touches now (bit per wall, as `mask`).
         let mut touching = [0u64; GATHER_CHUNK];
         for (w, wall) in params.walls.iter().enumerate() {
@@ -709,7 +743,7 @@ impl WallChunk<'_> {
                         batch.g[batch.len] = g;
                         batch.len += 1;
                         if batch.len == LANE_COUNT {
-                            self.evaluate(w, &batch, f, t, wh, wp);
+                            self.evaluate(w, &batch, f, t, wh, &mut sums);
                             batch.len = 0;
                         }
                     }
@@ -726,7 +760,7 @@ impl WallChunk<'_> {
                     batch.k[l] = batch.k[batch.len - 1];
                     batch.g[l] = batch.g[batch.len - 1];
                 }
-                self.evaluate(w, &batch, f, t, wh, wp);
+                self.evaluate(w, &batch, f, t, wh, &mut sums);
             }
         }
         for &i in self.candidates {
@@ -736,7 +770,8 @@ impl WallChunk<'_> {
     }
 
     /// Evaluates `batch` on wall `w` and adds its first `batch.len`
-    /// contacts, in order.
+    /// contacts, in order; `sums` are the chunk's force on each wall and
+    /// normal load on it.
     #[inline(always)]
     fn evaluate(
         &self,
@@ -745,7 +780,7 @@ impl WallChunk<'_> {
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
         wh: &mut [History],
-        wp: &mut [Vector3<f64>],
+        sums: &mut (&mut [Vector3<f64>], &mut [f64]),
     ) {
         let stride = self.params.walls.len().max(1);
         let g = ContactGeometry::<Lanes>::gather(&batch.g);
@@ -762,7 +797,9 @@ impl WallChunk<'_> {
             let cf = cf.lane(l);
             f[k] += cf.force_n;
             t[k] += cf.torque_per_radius_n * self.p.radius_m[self.lo + k] + cf.rolling_torque_n_m;
-            wp[w] -= cf.force_n;
+            sums.0[w] -= cf.force_n;
+            // The push along the contact normal (wall → particle).
+            sums.1[w] += cf.force_n.dot(&batch.g[l].normal);
         }
     }
 
@@ -790,10 +827,11 @@ pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallCo
         walls.history.par_chunks_mut(GATHER_CHUNK * stride),
         walls.open.par_chunks_mut(GATHER_CHUNK),
         walls.partial.par_chunks_mut(stride),
+        walls.partial_normal.par_chunks_mut(stride),
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(c, (f, t, wh, mask, wp))| {
+        .for_each(|(c, (f, t, wh, mask, wp, wn))| {
             let chunk = WallChunk {
                 params,
                 p: pr,
@@ -801,7 +839,14 @@ pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallCo
                 near,
                 lo: c * GATHER_CHUNK,
             };
-            let out = WallOut { f, t, wh, mask, wp };
+            let out = WallOut {
+                f,
+                t,
+                wh,
+                mask,
+                wp,
+                wn,
+            };
             dispatch!(simd, chunk.run_avx2 / run(out));
         });
     p.force_n = force;
@@ -834,6 +879,9 @@ pub(crate) struct WallContacts {
     /// Chunk c's force on wall w at `c * stride + w` (N), summed in chunk
     /// order for totals independent of the thread count.
     pub(crate) partial: Vec<Vector3<f64>>,
+    /// Chunk c's normal load on wall w at `c * stride + w` (N): the sum of
+    /// its contacts' forces along their normals.
+    pub(crate) partial_normal: Vec<f64>,
 }
 
 impl WallContacts {
@@ -850,6 +898,7 @@ impl WallContacts {
         self.open = vec![u64::MAX; n];
         self.near_for = (u64::MAX, Vec::new());
         self.partial = vec![Vector3::zeros(); n.div_ceil(GATHER_CHUNK).max(1) * stride];
+        self.partial_normal = vec![0.0; self.partial.len()];
     }
 
     /// Marks, per particle, the walls it can touch while it stays within
@@ -906,16 +955,18 @@ impl WallContacts {
             .resize(chunks + 1, self.candidates.len());
     }
 
-    /// Total force on each wall (N) from the chunks' partial sums.
-    pub(crate) fn totals(&self, out: &mut [Vector3<f64>]) {
+    /// Total force on each wall and its normal load (N) from the chunks'
+    /// partial sums.
+    pub(crate) fn totals(&self, out: &mut [Vector3<f64>], normal: &mut [f64]) {
         let stride = out.len().max(1);
-        for (w, total) in out.iter_mut().enumerate() {
+        for (w, (total, load)) in out.iter_mut().zip(normal.iter_mut()).enumerate() {
             *total = self
                 .partial
                 .iter()
                 .skip(w)
                 .step_by(stride)
                 .fold(Vector3::zeros(), |a, b| a + b);
+            *load = self.partial_normal.iter().skip(w).step_by(stride).sum();
         }
     }
 }

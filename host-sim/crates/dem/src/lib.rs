@@ -2,8 +2,9 @@
 //!
 //! Spheres with Hertz–Mindlin contacts (history, Coulomb cap), damping set
 //! from a restitution coefficient, optional rolling resistance, gravity with
-//! buoyancy, plane and cylinder walls; a Verlet neighbour list on a cell
-//! grid; velocity-Verlet integration; parallel with rayon and bit-for-bit
+//! buoyancy, plane and cylinder walls (fixed, translating or growing),
+//! periodic axes ([`periodic`]); a Verlet neighbour list on a cell grid;
+//! velocity-Verlet integration; parallel with rayon and bit-for-bit
 //! deterministic whatever the thread count (every particle sums its forces
 //! in a fixed order, the `forces` module).
 //!
@@ -32,6 +33,7 @@ mod forces;
 pub mod integrate;
 pub mod neighbour;
 pub mod particles;
+pub mod periodic;
 pub mod sink;
 pub mod walls;
 
@@ -43,6 +45,7 @@ pub use forces::{best_simd, simd, use_simd, Simd};
 pub use neighbour::NeighbourList;
 pub use particles::Particles;
 use particles::Sphere;
+pub use periodic::{Images, PeriodicAxis};
 pub use sink::Sink;
 pub use walls::{CylinderSide, Wall, WallShape};
 
@@ -94,8 +97,12 @@ pub struct Params {
     pub skin_m: f64,
     /// Particle–particle contact law.
     pub pair_model: ContactModel,
-    /// Walls, with their own contact laws. Default none.
+    /// Walls, with their own contact laws. Default none. A wall must not
+    /// vary along a periodic axis (a plane across it, a cylinder whose
+    /// axis crosses it).
     pub walls: Vec<Wall>,
+    /// Periodic axes (x, y, z; `None`: not periodic, the default).
+    pub periodic: [Option<PeriodicAxis>; 3],
 }
 
 impl Params {
@@ -112,6 +119,7 @@ impl Params {
             skin_m: 2e-4,
             pair_model: ContactModel::hertz_mindlin(material, material, spec)?,
             walls: Vec::new(),
+            periodic: [None; 3],
         };
         params.validate()?;
         Ok(params)
@@ -140,6 +148,9 @@ impl Params {
         if !self.gravity_m_s2.iter().all(|g| g.is_finite()) {
             return Err(DemError::param("gravity_m_s2", f64::NAN));
         }
+        for axis in self.periodic.iter().flatten() {
+            PeriodicAxis::new(axis.lo_m, axis.length_m)?;
+        }
         Ok(())
     }
 
@@ -163,10 +174,13 @@ pub struct State {
     blocks: forces::Blocks,
     wall_contacts: forces::WallContacts,
     wall_force_n: Vec<Vector3<f64>>,
+    wall_normal_load_n: Vec<f64>,
     forces_ready: bool,
     /// The particles' state packed for the pair pass; current only right
     /// after [`integrate::kick_drift`] wrote it.
     packed: particles::Packed,
+    /// The periodic axes of the last step's parameters.
+    images: Images,
 }
 
 impl State {
@@ -180,8 +194,10 @@ impl State {
             blocks: forces::Blocks::default(),
             wall_contacts: forces::WallContacts::default(),
             wall_force_n: Vec::new(),
+            wall_normal_load_n: Vec::new(),
             forces_ready: false,
             packed: particles::Packed::default(),
+            images: Images::default(),
         }
     }
 
@@ -189,6 +205,14 @@ impl State {
     /// in `Params::walls` order.
     pub fn wall_forces_n(&self) -> &[Vector3<f64>] {
         &self.wall_force_n
+    }
+
+    /// Normal load on each wall at the last evaluation (N): the sum over
+    /// its contacts of the force along the contact normal, compression
+    /// positive (on a cylinder, the radial load whose mean over the
+    /// surface is the pressure on it), in `Params::walls` order.
+    pub fn wall_normal_loads_n(&self) -> &[f64] {
+        &self.wall_normal_load_n
     }
 
     /// The neighbour list (pairs, rebuild count).
@@ -205,7 +229,7 @@ impl State {
             .filter(|&k| {
                 let (i, j) = (l.pair_i[k] as usize, l.pair_j[k] as usize);
                 let sphere = |i: usize| Sphere::new(&p.position_m[i], p.radius_m[i]);
-                sphere(i).overlaps(&sphere(j))
+                sphere(i).overlaps_in(&sphere(j), &self.images)
             })
             .count()
     }
@@ -224,9 +248,17 @@ impl State {
     fn prepare(&mut self, params: &Params) -> Result<(), DemError> {
         let n = self.particles.len();
         let walls = params.walls.len();
+        let images = Images::new(&params.periodic);
+        if images != self.images {
+            self.images = images;
+            // New periods: the list's pairs and their images are stale.
+            self.neighbours = NeighbourList::default();
+            self.forces_ready = false;
+        }
         if !self.wall_contacts.fits(n, walls) || self.wall_force_n.len() != walls {
             self.wall_contacts.reset(n, walls);
             self.wall_force_n = vec![Vector3::zeros(); walls];
+            self.wall_normal_load_n = vec![0.0; walls];
             self.forces_ready = false;
         }
         if self.neighbours.is_stale(n, params.skin_m) {
@@ -237,10 +269,20 @@ impl State {
     }
 
     fn rebuild(&mut self, params: &Params) -> Result<(), DemError> {
-        self.neighbours.build(
+        // Back into the box along periodic axes (the separations are
+        // minimum images, so nothing else changes).
+        for (a, axis) in params.periodic.iter().enumerate() {
+            if let Some(axis) = axis {
+                for x in &mut self.particles.position_m {
+                    x[a] = axis.wrap(x[a]);
+                }
+            }
+        }
+        self.neighbours.build_periodic(
             &self.particles.position_m,
             &self.particles.radius_m,
             params.skin_m,
+            &params.periodic,
         )?;
         Ok(())
     }
@@ -258,6 +300,7 @@ impl State {
             &mut self.neighbours,
             &mut self.blocks,
             &self.packed,
+            &self.images,
         );
         self.wall_contacts.cull(
             &params.walls,
@@ -266,7 +309,8 @@ impl State {
             params.skin_m,
         );
         forces::wall_forces(params, &mut self.particles, &mut self.wall_contacts);
-        self.wall_contacts.totals(&mut self.wall_force_n);
+        self.wall_contacts
+            .totals(&mut self.wall_force_n, &mut self.wall_normal_load_n);
         sink.add_external_forces(self.time_s, &mut self.particles);
     }
 }

@@ -10,6 +10,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::contact::History;
+use super::periodic::{check_fits, Images, PeriodicAxis};
 use super::{split_lengths, DemError};
 
 /// Particles per parallel task when building.
@@ -70,21 +71,34 @@ impl NeighbourList {
     }
 
     /// Rebuilds the list for `position_m`/`radius_m` with `skin_m` (m),
-    /// carrying over the history of pairs that stay listed.
-    ///
-    /// Two parallel passes over chunks of particles: the first finds each
-    /// particle's partners (scanning the grid's cell-sorted copy of the
-    /// positions, without branches on the distance test), the second writes
-    /// the chunks into the flat arrays at their offsets and carries the
-    /// history over. The list is the same whatever the chunking.
+    /// carrying over the history of pairs that stay listed; no periodic
+    /// axis ([`NeighbourList::build_periodic`]).
     pub fn build(
         &mut self,
         position_m: &[Vector3<f64>],
         radius_m: &[f64],
         skin_m: f64,
     ) -> Result<(), DemError> {
+        self.build_periodic(position_m, radius_m, skin_m, &[None; 3])
+    }
+
+    /// As [`NeighbourList::build`], with `periodic` axes (x, y, z): a pair
+    /// is listed when its nearest images are within the skin.
+    ///
+    /// Two parallel passes over chunks of particles: the first finds each
+    /// particle's partners (scanning the grid's cell-sorted copy of the
+    /// positions, without branches on the distance test), the second writes
+    /// the chunks into the flat arrays at their offsets and carries the
+    /// history over. The list is the same whatever the chunking.
+    pub fn build_periodic(
+        &mut self,
+        position_m: &[Vector3<f64>],
+        radius_m: &[f64],
+        skin_m: f64,
+        periodic: &[Option<PeriodicAxis>; 3],
+    ) -> Result<(), DemError> {
         let n = position_m.len();
-        let grid = Grid::new(position_m, radius_m, skin_m)?;
+        let grid = Grid::new(position_m, radius_m, skin_m, periodic)?;
         let chunk_count = n.div_ceil(BUILD_CHUNK);
         let chunk_range = |c: usize| c * BUILD_CHUNK..((c + 1) * BUILD_CHUNK).min(n);
 
@@ -186,8 +200,12 @@ impl NeighbourList {
 /// copied in cell order (a row of cells is one contiguous run to scan).
 struct Grid {
     origin: Vector3<f64>,
-    inv_cell: f64,
+    /// Inverse cell width along each axis (1/m).
+    inv_cell: [f64; 3],
     dims: [usize; 3],
+    /// The periodic axes (their cells wrap around) and their images.
+    periodic: [Option<PeriodicAxis>; 3],
+    images: Images,
     cell_start: Vec<u32>,
     /// Particle index of each cell-sorted slot.
     cell_particles: Vec<u32>,
@@ -196,7 +214,12 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(position_m: &[Vector3<f64>], radius_m: &[f64], skin_m: f64) -> Result<Grid, DemError> {
+    fn new(
+        position_m: &[Vector3<f64>],
+        radius_m: &[f64],
+        skin_m: f64,
+        periodic: &[Option<PeriodicAxis>; 3],
+    ) -> Result<Grid, DemError> {
         let n = position_m.len();
         let mut lo = Vector3::repeat(f64::INFINITY);
         let mut hi = Vector3::repeat(f64::NEG_INFINITY);
@@ -212,7 +235,15 @@ impl Grid {
             hi = Vector3::zeros();
         }
         let r_max = radius_m.iter().copied().fold(0.0, f64::max);
-        let mut cell = (2.0 * r_max + skin_m).max(f64::MIN_POSITIVE);
+        let range = (2.0 * r_max + skin_m).max(f64::MIN_POSITIVE);
+        check_fits(periodic, range)?;
+        for (a, axis) in periodic.iter().enumerate() {
+            if let Some(axis) = axis {
+                lo[a] = axis.lo_m;
+                hi[a] = axis.lo_m + axis.length_m;
+            }
+        }
+        let mut cell = range;
         let extent = hi - lo;
         // Bound the cell count (a particle flung far away must not make a
         // huge grid): at most ~4 cells per particle.
@@ -224,10 +255,25 @@ impl Grid {
             }
             cell *= 1.26;
         }
-        let dims = [0, 1, 2].map(|a| ((extent[a] / cell).floor() as usize) + 1);
-        let inv_cell = 1.0 / cell;
+        // A periodic axis is cut into whole cells of at least `cell`; the
+        // others cover the particles' extent.
+        let dims = [0, 1, 2].map(|a| match periodic[a] {
+            // Never fewer than three (the grown `cell` may not fit three
+            // times; `range` does, by `check_fits`).
+            Some(axis) => ((axis.length_m / cell).floor() as usize).max(3),
+            None => ((extent[a] / cell).floor() as usize) + 1,
+        });
+        let inv_cell = [0, 1, 2].map(|a| match periodic[a] {
+            Some(axis) => dims[a] as f64 / axis.length_m,
+            None => 1.0 / cell,
+        });
+        let coord = |x: &Vector3<f64>, a: usize| match periodic[a] {
+            Some(axis) => axis.wrap(x[a]),
+            None => x[a],
+        };
         let cell_of = |x: &Vector3<f64>| {
-            let c = [0, 1, 2].map(|a| (((x[a] - lo[a]) * inv_cell) as usize).min(dims[a] - 1));
+            let c = [0, 1, 2]
+                .map(|a| (((coord(x, a) - lo[a]) * inv_cell[a]) as usize).min(dims[a] - 1));
             (c[2] * dims[1] + c[1]) * dims[0] + c[0]
         };
         let ncell = dims[0] * dims[1] * dims[2];
@@ -256,6 +302,8 @@ impl Grid {
             origin: lo,
             inv_cell,
             dims,
+            periodic: *periodic,
+            images: Images::new(periodic),
             cell_start,
             cell_particles,
             cell_sphere_m,
@@ -263,36 +311,78 @@ impl Grid {
     }
 
     /// Appends to `out` each j > i whose surface is within `skin_m` of
-    /// particle i's (at `x`, radius `r_m`), in cell order.
+    /// particle i's (at `x`, radius `r_m`), in cell order; across a
+    /// periodic face, by the nearest image.
     #[inline]
     fn near_into(&self, i: usize, x: Vector3<f64>, r_m: f64, skin_m: f64, out: &mut Vec<u32>) {
-        let c = [0, 1, 2]
-            .map(|a| (((x[a] - self.origin[a]) * self.inv_cell) as usize).min(self.dims[a] - 1));
-        let range = |a: usize| c[a].saturating_sub(1)..=(c[a] + 1).min(self.dims[a] - 1);
-        let i = i as u32;
-        for cz in range(2) {
-            for cy in range(1) {
-                let row = (cz * self.dims[1] + cy) * self.dims[0];
-                let xs = range(0);
-                // Cells of a row are contiguous in the sorted order.
-                let (a, b) = (
-                    self.cell_start[row + xs.start()] as usize,
-                    self.cell_start[row + xs.end() + 1] as usize,
-                );
-                // Every candidate is written, the count advances only for
-                // the kept ones: no branch on the (unpredictable) test.
-                let mut m = out.len();
-                out.resize(m + (b - a), 0);
-                for (&j, s) in self.cell_particles[a..b]
-                    .iter()
-                    .zip(&self.cell_sphere_m[a..b])
-                {
-                    let d = Vector3::new(s[0], s[1], s[2]) - x;
-                    let cut = r_m + s[3] + skin_m;
-                    out[m] = j;
-                    m += usize::from((j > i) & (d.norm_squared() < cut * cut));
+        let c = [0, 1, 2].map(|a| {
+            let xa = self.periodic[a].map_or(x[a], |axis| axis.wrap(x[a]));
+            (((xa - self.origin[a]) * self.inv_cell[a]) as usize).min(self.dims[a] - 1)
+        });
+        // The neighbour cells along an axis: wrapped on a periodic one
+        // (three distinct cells: `check_fits`), clipped on the others.
+        let cells = |a: usize| -> ([usize; 3], usize) {
+            let d = self.dims[a];
+            if self.periodic[a].is_some() && d >= 3 {
+                ([(c[a] + d - 1) % d, c[a], (c[a] + 1) % d], 3)
+            } else {
+                let lo = c[a].saturating_sub(1);
+                let hi = (c[a] + 1).min(d - 1);
+                let mut v = [0; 3];
+                for (k, cell) in (lo..=hi).enumerate() {
+                    v[k] = cell;
                 }
-                out.truncate(m);
+                (v, hi - lo + 1)
+            }
+        };
+        // Runs of consecutive x cells (one, or two where x wraps).
+        let (xs, nx) = cells(0);
+        let mut runs = [(0usize, 0usize); 3];
+        let mut nruns = 0;
+        let mut sorted = xs;
+        sorted[..nx].sort_unstable();
+        for &cx in &sorted[..nx] {
+            if nruns > 0 && runs[nruns - 1].1 + 1 == cx {
+                runs[nruns - 1].1 = cx;
+            } else {
+                runs[nruns] = (cx, cx);
+                nruns += 1;
+            }
+        }
+        let (ys, ny) = cells(1);
+        let (zs, nz) = cells(2);
+        let i = i as u32;
+        let periodic = self.images.any();
+        for &cz in &zs[..nz] {
+            for &cy in &ys[..ny] {
+                let row = (cz * self.dims[1] + cy) * self.dims[0];
+                for &(x0, x1) in &runs[..nruns] {
+                    // Cells of a row are contiguous in the sorted order.
+                    let (a, b) = (
+                        self.cell_start[row + x0] as usize,
+                        self.cell_start[row + x1 + 1] as usize,
+                    );
+                    // Every candidate is written, the count advances only
+                    // for the kept ones: no branch on the (unpredictable)
+                    // test.
+                    let mut m = out.len();
+                    out.resize(m + (b - a), 0);
+                    for (&j, s) in self.cell_particles[a..b]
+                        .iter()
+                        .zip(&self.cell_sphere_m[a..b])
+                    {
+                        let y = Vector3::new(s[0], s[1], s[2]);
+                        let d = if periodic {
+                            self.images.separation(&x, &y)
+                        } else {
+                            y - x
+                        };
+                        let cut = r_m + s[3] + skin_m;
+                        out[m] = j;
+                        m += usize::from((j > i) & (d.norm_squared() < cut * cut));
+                    }
+                    out.truncate(m);
+                }
             }
         }
     }

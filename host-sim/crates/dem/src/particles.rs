@@ -52,6 +52,20 @@ impl Sphere {
         let d = Vector3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
         d.norm_squared() < sum * sum
     }
+
+    /// As [`Sphere::overlaps`], `other` at its nearest image.
+    #[inline(always)]
+    pub(crate) fn overlaps_in(&self, other: &Sphere, images: &crate::Images) -> bool {
+        if !images.any() {
+            return self.overlaps(other);
+        }
+        let (a, b) = (&self.0, &other.0);
+        let sum = a[3] + b[3];
+        let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let s = images.shift(d);
+        let d = Vector3::new(d[0] + s[0], d[1] + s[1], d[2] + s[2]);
+        d.norm_squared() < sum * sum
+    }
 }
 
 /// A particle's velocity (m/s) and mass (kg), then its angular velocity

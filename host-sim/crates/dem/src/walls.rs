@@ -46,6 +46,12 @@ pub struct Wall {
     /// Translational velocity of the wall surface (m/s); its position is not
     /// advanced by the solver (the caller moves `shape`). Default zero.
     pub velocity_m_s: Vector3<f64>,
+    /// Speed of the surface along its normal, towards the particles (m/s):
+    /// a cylinder's dR/dt with the particles outside, −dR/dt with them
+    /// inside. It enters the contact's relative velocity (damping,
+    /// tangential spring), as the surface's own motion does; the caller
+    /// changes the radius. Default zero.
+    pub normal_velocity_m_s: f64,
     /// Particle–wall contact law (built from the particle and wall materials).
     pub model: ContactModel,
 }
@@ -70,6 +76,7 @@ impl Wall {
                 normal: normal / len,
             },
             velocity_m_s: Vector3::zeros(),
+            normal_velocity_m_s: 0.0,
             model: ContactModel::hertz_mindlin(particle, wall, spec)?,
         })
     }
@@ -100,6 +107,7 @@ impl Wall {
                 side,
             },
             velocity_m_s: Vector3::zeros(),
+            normal_velocity_m_s: 0.0,
             model: ContactModel::hertz_mindlin(particle, wall, spec)?,
         })
     }
