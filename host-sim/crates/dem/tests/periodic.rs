@@ -1,7 +1,8 @@
-//! Periodic boundaries and moving wall surfaces: a periodic system does
-//! not know where its faces are, a contact across a face is the contact
-//! in the middle of the box, and a growing cylinder's surface speed enters
-//! the contact like a particle's own approach.
+//! Periodic boundaries and wall surfaces: a periodic system does not
+//! know where its faces are, a contact across a face is the contact in the
+//! middle of the box, a growing cylinder's surface speed enters the
+//! contact like a particle's own approach, and a wall's normal load is
+//! what presses on it.
 
 use dem::contact::{ContactSpec, Material};
 use dem::{step, CylinderSide, Params, Particles, PeriodicAxis, Sink, State, Wall};
@@ -234,4 +235,57 @@ fn a_growing_cylinder_pushes_like_a_grain_moving_onto_it() {
     );
     // The damping adds to the elastic force: the surface's speed counted.
     assert!(grown.x.abs() > 1.05 * still.x.abs(), "{grown} vs {still}");
+}
+
+#[test]
+fn a_grain_resting_on_a_rod_loads_it_with_its_weight_along_the_normal() {
+    // A grain settled on top of a horizontal rod and one against a side
+    // wall: the normal load on the rod is its weight; the side wall, which
+    // it does not touch, carries none.
+    let spec = ContactSpec::default();
+    let mat = sand();
+    let mut params = Params::new(&mat, &spec, 2.0e-6).unwrap();
+    params.gravity_m_s2 = Vector3::new(0.0, 0.0, -9.81);
+    params.walls = vec![
+        Wall::cylinder(
+            Vector3::zeros(),
+            Vector3::y(),
+            9.35e-3,
+            CylinderSide::Outside,
+            &mat,
+            &mat,
+            &spec,
+        )
+        .unwrap(),
+        Wall::plane(
+            Vector3::new(0.02, 0.0, 0.0),
+            -Vector3::x(),
+            &mat,
+            &mat,
+            &spec,
+        )
+        .unwrap(),
+    ];
+    let mut p = Particles::new();
+    p.push(
+        Vector3::new(0.0, 0.0, 10.36e-3),
+        Vector3::zeros(),
+        1.0e-3,
+        2920.0,
+    )
+    .unwrap();
+    let weight = p.mass_kg[0] * 9.81;
+    let mut state = State::new(p);
+    for _ in 0..60_000 {
+        step(&params, &mut state, &mut ()).unwrap();
+    }
+    let loads = state.wall_normal_loads_n();
+    assert!(
+        (loads[0] / weight - 1.0).abs() < 1e-3,
+        "{} vs {weight}",
+        loads[0]
+    );
+    assert_eq!(loads[1], 0.0);
+    // The force on the rod points down: the load is its size.
+    assert!((state.wall_forces_n()[0].z + loads[0]).abs() < 1e-6 * weight);
 }
