@@ -34,16 +34,22 @@ const BLOCKS_PER_WORKER: usize = 1;
 /// ≈ 25 ns against ≈ 5 ns); only the first split of a run relies on it.
 const TOUCHING_WEIGHT: f64 = 5.0;
 
-/// Whether the spheres i and j overlap (j at its nearest image).
+/// Whether the spheres i and j overlap (with `PERIODIC`, j at its
+/// nearest image: the pass is compiled once for each, so that a box with
+/// no periodic axis pays nothing for them).
 #[inline(always)]
-fn overlapping(p: &[Sphere], i: usize, j: usize, images: &Images) -> bool {
-    p[i].overlaps_in(&p[j], images)
+fn overlapping<const PERIODIC: bool>(p: &[Sphere], i: usize, j: usize, images: &Images) -> bool {
+    if PERIODIC {
+        p[i].overlaps_nearest(&p[j], images)
+    } else {
+        p[i].overlaps(&p[j])
+    }
 }
 
-/// Geometry of the overlapping pairs (i[l], j[l]), one per lane, each j
-/// at its nearest image.
+/// Geometry of the overlapping pairs (i[l], j[l]), one per lane (with
+/// `PERIODIC`, each j at its nearest image).
 #[inline(always)]
-fn pair_geometry_lanes(
+fn pair_geometry_lanes<const PERIODIC: bool>(
     p: &Packed,
     i: &[usize; LANE_COUNT],
     j: &[usize; LANE_COUNT],
@@ -66,7 +72,7 @@ fn pair_geometry_lanes(
     };
     let fourth = |q: &[&[f64; 4]; LANE_COUNT]| Lanes(q.map(|q| q[3]));
     let mut xj_m = vec(&xj);
-    if images.any() {
+    if PERIODIC {
         for l in 0..LANE_COUNT {
             let d = [0, 1, 2].map(|a| xj[l][a] - xi[l][a]);
             let shift = images.shift(d);
@@ -115,7 +121,7 @@ impl<'a> PairRun<'a> {
     /// returning how many; pairs apart are marked closed. No branch on the
     /// outcome: which pairs touch is a coin toss to the branch predictor.
     #[inline(always)]
-    fn sort_out(
+    fn sort_out<const PERIODIC: bool>(
         &mut self,
         p: &[Sphere],
         images: &Images,
@@ -125,7 +131,7 @@ impl<'a> PairRun<'a> {
         let mut count = 0;
         for (n, &s) in slots.iter().enumerate() {
             let s = s as usize;
-            let on = overlapping(p, self.pi[s] as usize, self.pj[s] as usize, images);
+            let on = overlapping::<PERIODIC>(p, self.pi[s] as usize, self.pj[s] as usize, images);
             touching[count] = n as u32;
             count += usize::from(on);
             self.open[s] &= u8::from(on);
@@ -139,7 +145,7 @@ impl<'a> PairRun<'a> {
     /// same history in, the same values out).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn evaluate(
+    fn evaluate<const PERIODIC: bool>(
         &mut self,
         p: &Packed,
         images: &Images,
@@ -156,7 +162,7 @@ impl<'a> PairRun<'a> {
                 std::array::from_fn(|l| slots[which[(first + l).min(last)] as usize] as usize);
             let i = batch.map(|s| self.pi[s] as usize);
             let j = batch.map(|s| self.pj[s] as usize);
-            let g = pair_geometry_lanes(p, &i, &j, images);
+            let g = pair_geometry_lanes::<PERIODIC>(p, &i, &j, images);
             // Plain loops: the `array::from_fn` form was left out of line
             // (a call per history component, outside the AVX2 copy).
             let mut h = [zero; HISTORY_LEN];
@@ -427,6 +433,23 @@ impl PairRun<'_> {
     /// run starts at list index `k0`) into `out`, zero when apart.
     #[inline(always)]
     fn straddling(&mut self, x: &Inputs, k0: usize, mine: &[u32], out: &mut [ContactForce]) {
+        if x.images.any() {
+            self.straddling_in::<true>(x, k0, mine, out)
+        } else {
+            self.straddling_in::<false>(x, k0, mine, out)
+        }
+    }
+
+    /// [`PairRun::straddling`] for a box with (`PERIODIC`) or without
+    /// periodic axes.
+    #[inline(always)]
+    fn straddling_in<const PERIODIC: bool>(
+        &mut self,
+        x: &Inputs,
+        k0: usize,
+        mine: &[u32],
+        out: &mut [ContactForce],
+    ) {
         let mut slots = [0u32; PAIR_CHUNK];
         let mut touching = [0u32; PAIR_CHUNK];
         for (chunk, out) in mine.chunks(PAIR_CHUNK).zip(out.chunks_mut(PAIR_CHUNK)) {
@@ -434,11 +457,11 @@ impl PairRun<'_> {
                 *s = k - k0 as u32;
             }
             let slots = &slots[..chunk.len()];
-            let count = self.sort_out(&x.packed.sphere, x.images, slots, &mut touching);
+            let count = self.sort_out::<PERIODIC>(&x.packed.sphere, x.images, slots, &mut touching);
             out.fill(ContactForce::default());
             let which = &touching[..count];
             let mut w = 0;
-            self.evaluate(x.packed, x.images, x.model, x.dt_s, slots, which, |cf| {
+            self.evaluate::<PERIODIC>(x.packed, x.images, x.model, x.dt_s, slots, which, |cf| {
                 out[which[w] as usize] = cf;
                 w += 1;
             });
@@ -458,6 +481,27 @@ impl PairRun<'_> {
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn block(
+        &mut self,
+        x: &Inputs,
+        range: (usize, usize),
+        k0: usize,
+        incoming: &[u32],
+        cursor: usize,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+    ) {
+        if x.images.any() {
+            self.block_in::<true>(x, range, k0, incoming, cursor, f, t)
+        } else {
+            self.block_in::<false>(x, range, k0, incoming, cursor, f, t)
+        }
+    }
+
+    /// [`PairRun::block`] for a box with (`PERIODIC`) or without periodic
+    /// axes.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn block_in<const PERIODIC: bool>(
         &mut self,
         x: &Inputs,
         (lo, hi): (usize, usize),
@@ -494,7 +538,7 @@ impl PairRun<'_> {
                 *s = (s0 + n) as u32;
             }
             let slots = &slots[..m];
-            let count = self.sort_out(&x.packed.sphere, x.images, slots, &mut touching);
+            let count = self.sort_out::<PERIODIC>(&x.packed.sphere, x.images, slots, &mut touching);
             let (mut n_inside, mut n_outside) = (0, 0);
             for &w in &touching[..count] {
                 let is_inside = (pj[slots[w as usize] as usize] as usize) < hi;
@@ -508,7 +552,7 @@ impl PairRun<'_> {
             // order as if the pairs were taken one by one.
             let which = &inside[..n_inside];
             let mut next = 0;
-            self.evaluate(x.packed, x.images, x.model, x.dt_s, slots, which, |cf| {
+            self.evaluate::<PERIODIC>(x.packed, x.images, x.model, x.dt_s, slots, which, |cf| {
                 let s = slots[which[next] as usize] as usize;
                 next += 1;
                 let (i, j) = (pi[s] as usize, pj[s] as usize);

@@ -315,6 +315,50 @@ impl Grid {
     /// periodic face, by the nearest image.
     #[inline]
     fn near_into(&self, i: usize, x: Vector3<f64>, r_m: f64, skin_m: f64, out: &mut Vec<u32>) {
+        if self.images.any() {
+            self.near_periodic_into(i, x, r_m, skin_m, out);
+            return;
+        }
+        let c = [0, 1, 2]
+            .map(|a| (((x[a] - self.origin[a]) * self.inv_cell[a]) as usize).min(self.dims[a] - 1));
+        let range = |a: usize| c[a].saturating_sub(1)..=(c[a] + 1).min(self.dims[a] - 1);
+        let i = i as u32;
+        for cz in range(2) {
+            for cy in range(1) {
+                let row = (cz * self.dims[1] + cy) * self.dims[0];
+                let xs = range(0);
+                // Cells of a row are contiguous in the sorted order.
+                let (a, b) = (
+                    self.cell_start[row + xs.start()] as usize,
+                    self.cell_start[row + xs.end() + 1] as usize,
+                );
+                // Every candidate is written, the count advances only for
+                // the kept ones: no branch on the (unpredictable) test.
+                let mut m = out.len();
+                out.resize(m + (b - a), 0);
+                for (&j, s) in self.cell_particles[a..b]
+                    .iter()
+                    .zip(&self.cell_sphere_m[a..b])
+                {
+                    let d = Vector3::new(s[0], s[1], s[2]) - x;
+                    let cut = r_m + s[3] + skin_m;
+                    out[m] = j;
+                    m += usize::from((j > i) & (d.norm_squared() < cut * cut));
+                }
+                out.truncate(m);
+            }
+        }
+    }
+
+    /// [`Grid::near_into`] in a box with periodic axes.
+    fn near_periodic_into(
+        &self,
+        i: usize,
+        x: Vector3<f64>,
+        r_m: f64,
+        skin_m: f64,
+        out: &mut Vec<u32>,
+    ) {
         let c = [0, 1, 2].map(|a| {
             let xa = self.periodic[a].map_or(x[a], |axis| axis.wrap(x[a]));
             (((xa - self.origin[a]) * self.inv_cell[a]) as usize).min(self.dims[a] - 1)
@@ -352,7 +396,6 @@ impl Grid {
         let (ys, ny) = cells(1);
         let (zs, nz) = cells(2);
         let i = i as u32;
-        let periodic = self.images.any();
         for &cz in &zs[..nz] {
             for &cy in &ys[..ny] {
                 let row = (cz * self.dims[1] + cy) * self.dims[0];
@@ -372,11 +415,7 @@ impl Grid {
                         .zip(&self.cell_sphere_m[a..b])
                     {
                         let y = Vector3::new(s[0], s[1], s[2]);
-                        let d = if periodic {
-                            self.images.separation(&x, &y)
-                        } else {
-                            y - x
-                        };
+                        let d = self.images.separation(&x, &y);
                         let cut = r_m + s[3] + skin_m;
                         out[m] = j;
                         m += usize::from((j > i) & (d.norm_squared() < cut * cut));

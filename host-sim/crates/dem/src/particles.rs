@@ -56,9 +56,17 @@ impl Sphere {
     /// As [`Sphere::overlaps`], `other` at its nearest image.
     #[inline(always)]
     pub(crate) fn overlaps_in(&self, other: &Sphere, images: &crate::Images) -> bool {
-        if !images.any() {
-            return self.overlaps(other);
+        if images.any() {
+            self.overlaps_nearest(other, images)
+        } else {
+            self.overlaps(other)
         }
+    }
+
+    /// As [`Sphere::overlaps`], `other` at its nearest image along the
+    /// periodic axes of `images` (which must have some).
+    #[inline(always)]
+    pub(crate) fn overlaps_nearest(&self, other: &Sphere, images: &crate::Images) -> bool {
         let (a, b) = (&self.0, &other.0);
         let sum = a[3] + b[3];
         let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
