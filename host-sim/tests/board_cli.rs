@@ -5,17 +5,27 @@
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
+use std::sync::{Mutex, MutexGuard};
 
 const HOST_SIM: &str = env!("CARGO_BIN_EXE_host-sim");
+
+/// One virtual board at a time: each runs its tasks against deadlines of
+/// a few ms, which two boards (and their host tools) on a 2-core machine
+/// can miss together.
+static ONE_BOARD: Mutex<()> = Mutex::new(());
 
 /// A `host-sim virtual-board` process, killed (by its id) when dropped.
 struct VirtualBoard {
     child: Child,
     port: String,
+    _alone: MutexGuard<'static, ()>,
 }
 
 impl VirtualBoard {
     fn start(args: &[&str]) -> VirtualBoard {
+        // A test that failed while holding the lock poisons it; the next
+        // board may still run alone.
+        let alone = ONE_BOARD.lock().unwrap_or_else(|e| e.into_inner());
         let mut child = Command::new(HOST_SIM)
             .arg("virtual-board")
             .args(args)
@@ -31,7 +41,11 @@ impl VirtualBoard {
             .unwrap_or_else(|| panic!("first line `{line}`"))
             .trim()
             .to_owned();
-        VirtualBoard { child, port }
+        VirtualBoard {
+            child,
+            port,
+            _alone: alone,
+        }
     }
 
     fn board(&self, args: &[&str]) -> Output {

@@ -11,7 +11,7 @@ use urechis::controller::{
 use urechis::table::generated::TABLE;
 
 use super::plant::{Plant, PlantFault, Truth};
-use super::scenario::{Scenario, Trigger, START_MS};
+use super::scenario::{Scenario, StateEntries, START_MS};
 
 /// One control step as it happened.
 #[derive(Clone, Debug, PartialEq)]
@@ -84,26 +84,14 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
     let mut line_kpa_ms = vec![start.line_kpa as f32];
     let mut sensed_kpa_ms = vec![start.sensed_kpa as f32];
     let mut end_stop_ms = vec![start.end_stops.empty || start.end_stops.full];
-    // Entries into each state so far, with the time of the latest.
-    let mut entries: Vec<(State, u32, u32)> = Vec::new();
-    let mut previous = State::Idle;
+    let mut entries = StateEntries::default();
     let mut settled_at: Option<u32> = None;
     let mut started = false;
     let mut now_ms = 0u32;
     loop {
         // Injections due now.
         pending.retain(|inj| {
-            let due = match inj.at {
-                Trigger::AtMs(t) => now_ms >= t,
-                Trigger::AfterEntering {
-                    state,
-                    nth,
-                    after_ms,
-                } => entries
-                    .iter()
-                    .find(|(s, _, _)| *s == state)
-                    .is_some_and(|&(_, n, since)| n == nth && now_ms >= since + after_ms),
-            };
+            let due = entries.due(&inj.at, Some(now_ms), now_ms);
             if due {
                 plant.inject(inj.fault);
                 injected.push(Injected {
@@ -132,16 +120,7 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
         };
         let truth = plant.truth();
         let outputs = ctrl.step(&inputs);
-        if outputs.state != previous {
-            match entries.iter_mut().find(|(s, _, _)| *s == outputs.state) {
-                Some(e) => {
-                    e.1 += 1;
-                    e.2 = now_ms;
-                }
-                None => entries.push((outputs.state, 1, now_ms)),
-            }
-            previous = outputs.state;
-        }
+        entries.note(outputs.state, now_ms);
         started |= outputs.state != State::Idle;
         steps.push(StepRecord {
             inputs,

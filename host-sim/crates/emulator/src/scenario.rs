@@ -35,6 +35,53 @@ pub enum Trigger {
     },
 }
 
+/// The controller's entries into each state so far (how many, and when
+/// the latest): what [`Trigger::AfterEntering`] waits for. One record
+/// keeps the emulator and the virtual board firing injections alike.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StateEntries {
+    entries: Vec<(State, u32, u32)>,
+    previous: Option<State>,
+}
+
+impl StateEntries {
+    /// Notes the controller in `state` at `now_ms` (ms): an entry when it
+    /// differs from the last one noted (the first, Idle, is none).
+    pub fn note(&mut self, state: State, now_ms: u32) {
+        if self.previous.unwrap_or(State::Idle) == state {
+            self.previous = Some(state);
+            return;
+        }
+        self.previous = Some(state);
+        match self.entries.iter_mut().find(|(s, _, _)| *s == state) {
+            Some(e) => {
+                e.1 += 1;
+                e.2 = now_ms;
+            }
+            None => self.entries.push((state, 1, now_ms)),
+        }
+    }
+
+    /// Whether `trigger` is due: [`Trigger::AtMs`] against `scenario_ms`,
+    /// the scenario's own clock (ms; `None` while it has not started), and
+    /// [`Trigger::AfterEntering`] against `now_ms`, the clock the entries
+    /// were noted on.
+    pub fn due(&self, trigger: &Trigger, scenario_ms: Option<u32>, now_ms: u32) -> bool {
+        match *trigger {
+            Trigger::AtMs(t) => scenario_ms.is_some_and(|s| s >= t),
+            Trigger::AfterEntering {
+                state,
+                nth,
+                after_ms,
+            } => self
+                .entries
+                .iter()
+                .find(|(s, _, _)| *s == state)
+                .is_some_and(|&(_, n, since)| n == nth && now_ms >= since + after_ms),
+        }
+    }
+}
+
 /// A fault put into the plant.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Injection {

@@ -42,7 +42,7 @@ use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::mutex::Mutex as AsyncMutex;
 use embassy_sync::signal::Signal;
-use emulator::scenario::Trigger;
+use emulator::scenario::StateEntries;
 use emulator::{Injection, Plant, PlantConfig};
 use serialport::{SerialPort, TTYPort};
 use urechis::controller::{Controller, State};
@@ -290,7 +290,7 @@ fn uart_rx(mut port: Box<dyn SerialPort>, control: &Control) {
 /// The plant follows the board's clock in 1 ms sub-steps; the scenario's
 /// injections fire on the controller's states.
 fn plant_clock(rig: &SharedRig, control: &Control, mut pending: Vec<Injection>) {
-    let mut entries: Vec<(State, u32, u32)> = Vec::new();
+    let mut entries = StateEntries::default();
     let mut previous = State::Idle;
     let mut started_ms: Option<u32> = None;
     while !control.stop.load(Ordering::Relaxed) {
@@ -299,14 +299,8 @@ fn plant_clock(rig: &SharedRig, control: &Control, mut pending: Vec<Injection>) 
             .get(usize::from(control.state.load(Ordering::Relaxed)))
             .copied()
             .unwrap_or(State::Idle);
+        entries.note(state, now_ms);
         if state != previous {
-            match entries.iter_mut().find(|(s, _, _)| *s == state) {
-                Some(e) => {
-                    e.1 += 1;
-                    e.2 = now_ms;
-                }
-                None => entries.push((state, 1, now_ms)),
-            }
             if previous == State::Idle && started_ms.is_none() {
                 started_ms = Some(now_ms);
             }
@@ -317,21 +311,12 @@ fn plant_clock(rig: &SharedRig, control: &Control, mut pending: Vec<Injection>) 
             let (valve, advance) = (r.valve_open, r.advance_on);
             r.plant.set_outputs(valve, advance);
             r.plant.advance_to(now_ms, 100);
+            // Scenario times count from its start command, which the
+            // emulator gives at START_MS.
+            let scenario_ms =
+                started_ms.map(|s| now_ms.saturating_sub(s) + emulator::scenario::START_MS);
             pending.retain(|inj| {
-                let due = match inj.at {
-                    // Scenario times count from its start command.
-                    Trigger::AtMs(t) => started_ms.is_some_and(|s| {
-                        now_ms >= s + t.saturating_sub(emulator::scenario::START_MS)
-                    }),
-                    Trigger::AfterEntering {
-                        state,
-                        nth,
-                        after_ms,
-                    } => entries
-                        .iter()
-                        .find(|(s, _, _)| *s == state)
-                        .is_some_and(|&(_, n, since)| n == nth && now_ms >= since + after_ms),
-                };
+                let due = entries.due(&inj.at, scenario_ms, now_ms);
                 if due {
                     r.plant.inject(inj.fault);
                 }
