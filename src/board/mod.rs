@@ -21,7 +21,8 @@
 //! | USART2 RX | PA3 | ST-LINK virtual COM port |
 //!
 //! Sensor and pump grounds go to the NUCLEO's GND; the stepper driver's motor
-//! supply is separate. Clocks: HSI 16 MHz → PLL → 84 MHz SYSCLK (APB1 42 MHz,
+//! supply is separate. Clocks: HSI 16 MHz → /8 = 2 MHz PLL input (ST's
+//! recommended value) → 336 MHz VCO → /4 = 84 MHz SYSCLK (APB1 42 MHz,
 //! APB2 84 MHz), so no solder-bridge change is needed for an external clock.
 //!
 //! # Flash
