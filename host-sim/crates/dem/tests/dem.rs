@@ -6,6 +6,9 @@
 use dem::{self, step, ContactSpec, CylinderSide, Material, Params, Particles, Sink, State, Wall};
 use nalgebra::Vector3;
 
+mod common;
+use common::sand;
+
 /// Chung & Ooi's Hertz contact duration prefactor (2.868 rounded).
 const HERTZ_DURATION: f64 = 2.87;
 
@@ -403,14 +406,6 @@ impl Sink for WallLog {
     }
 }
 
-fn sand() -> Material {
-    Material {
-        youngs_modulus_pa: 1.0e7,
-        poisson_ratio: 0.3,
-        density_kg_m3: 2920.0,
-    }
-}
-
 /// 4 × 4 × n grains (r = 1 mm) on a jittered lattice in a 10 × 10 mm box.
 fn small_bed(layers: usize, fluid_kg_m3: f64) -> (Params, State) {
     let spec = ContactSpec::default();
@@ -430,13 +425,7 @@ fn small_bed(layers: usize, fluid_kg_m3: f64) -> (Params, State) {
             .push(Wall::plane(point, normal, &mat, &mat, &spec).unwrap());
     }
     let mut p = Particles::new();
-    let mut s = 7u64;
-    let mut jitter = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3e-3
-    };
+    let mut jitter = common::jitter(7, 0.15e-3);
     for k in 0..layers {
         for j in 0..4 {
             for i in 0..4 {

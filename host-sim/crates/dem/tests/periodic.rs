@@ -4,17 +4,12 @@
 //! contact like a particle's own approach, and a wall's normal load is
 //! what presses on it.
 
-use dem::contact::{ContactSpec, Material};
+use dem::contact::ContactSpec;
 use dem::{step, CylinderSide, Params, Particles, PeriodicAxis, Sink, State, Wall};
 use nalgebra::Vector3;
 
-fn sand() -> Material {
-    Material {
-        youngs_modulus_pa: 1.0e7,
-        poisson_ratio: 0.3,
-        density_kg_m3: 2920.0,
-    }
-}
+mod common;
+use common::sand;
 
 /// Box length of the periodic beds (m).
 const L: f64 = 10.0e-3;
@@ -36,13 +31,7 @@ fn periodic_bed(layers: usize, shift: [f64; 2]) -> (Params, State) {
         .walls
         .push(Wall::plane(Vector3::zeros(), Vector3::z(), &mat, &mat, &spec).unwrap());
     let mut p = Particles::new();
-    let mut s = 11u64;
-    let mut jitter = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3e-3
-    };
+    let mut jitter = common::jitter(11, 0.15e-3);
     for k in 0..layers {
         for j in 0..4 {
             for i in 0..4 {
