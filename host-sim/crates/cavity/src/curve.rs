@@ -39,23 +39,7 @@ impl Curve {
     /// The curve from every window of a run (the rest's and the
     /// expansion's, in step order).
     pub fn new(windows: Vec<Window>, schedule: &Schedule, cavity: &Cavity) -> Result<Curve> {
-        let rest_windows = ((cavity.rest_mean_s / (schedule.window_steps as f64 * cavity.dt_s))
-            .round() as u64)
-            .max(1);
-        let first_rest = schedule
-            .start_step
-            .saturating_sub((rest_windows - 1) * schedule.window_steps);
-        let rest: Vec<f64> = windows
-            .iter()
-            .filter(|w| w.end_step >= first_rest && w.end_step <= schedule.start_step)
-            .map(|w| w.pe_kpa)
-            .collect();
-        anyhow::ensure!(
-            rest.len() as u64 == rest_windows,
-            "{} windows at rest before step {}, expected {rest_windows}",
-            rest.len(),
-            schedule.start_step
-        );
+        let at_rest_kpa = rest_mean_kpa(&windows, schedule, cavity)?;
         let expansion: Vec<Window> = (1..=100)
             .map(|p| {
                 let end = schedule.start_step + p * schedule.window_steps;
@@ -67,7 +51,7 @@ impl Curve {
             })
             .collect::<Result<_>>()?;
         Ok(Curve {
-            at_rest_kpa: rest.iter().sum::<f64>() / rest.len() as f64,
+            at_rest_kpa,
             d0_mm: 2e3 * cavity.radius_m[0],
             expansion,
         })
@@ -135,6 +119,29 @@ impl Curve {
         }
         s
     }
+}
+
+/// p_e at rest (kPa): the mean of the windows of `windows` (a run's, in
+/// step order) that end in the last [`Cavity::rest_mean_s`] before the
+/// expansion starts; an error when any of them is missing.
+pub fn rest_mean_kpa(windows: &[Window], schedule: &Schedule, cavity: &Cavity) -> Result<f64> {
+    let rest_windows =
+        ((cavity.rest_mean_s / (schedule.window_steps as f64 * cavity.dt_s)).round() as u64).max(1);
+    let first_rest = schedule
+        .start_step
+        .saturating_sub((rest_windows - 1) * schedule.window_steps);
+    let rest: Vec<f64> = windows
+        .iter()
+        .filter(|w| w.end_step >= first_rest && w.end_step <= schedule.start_step)
+        .map(|w| w.pe_kpa)
+        .collect();
+    anyhow::ensure!(
+        rest.len() as u64 == rest_windows,
+        "{} windows at rest before step {}, expected {rest_windows}",
+        rest.len(),
+        schedule.start_step
+    );
+    Ok(rest.iter().sum::<f64>() / rest.len() as f64)
 }
 
 /// One row of a comparison: both codes at one percentage.

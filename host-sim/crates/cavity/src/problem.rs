@@ -19,7 +19,7 @@ use dem::{step, CylinderSide, Params, Particles, PeriodicAxis, State, Wall};
 use nalgebra::Vector3;
 
 use super::bed::Bed;
-use super::curve::{Curve, Window};
+use super::curve::{rest_mean_kpa, Curve, Window};
 
 /// The box, grains, contact law and cylinder of the problem (SI units).
 #[derive(Clone, Debug, PartialEq)]
@@ -224,15 +224,8 @@ pub fn run(
 /// (kPa), the mean of the same windows as [`Curve::at_rest_kpa`].
 pub fn at_rest_kpa(cavity: &Cavity, bed: &Bed, expansion_s: f64) -> Result<f64> {
     let schedule = Schedule::new(expansion_s, cavity.relax_s, cavity.dt_s)?;
-    let mut windows = simulate(cavity, bed, &schedule, schedule.start_step, |_, _| {})?;
-    // Windows for the expansion that did not run, so that the curve's
-    // checks pass; only its at-rest value is read.
-    let last = windows.last().copied().context("no window at rest")?;
-    windows.extend((1..=100).map(|p| Window {
-        end_step: schedule.start_step + p * schedule.window_steps,
-        ..last
-    }));
-    Ok(Curve::new(windows, &schedule, cavity)?.at_rest_kpa)
+    let windows = simulate(cavity, bed, &schedule, schedule.start_step, |_, _| {})?;
+    rest_mean_kpa(&windows, &schedule, cavity)
 }
 
 /// Steps `bed` through `schedule` up to step `end`; the windows so far.
