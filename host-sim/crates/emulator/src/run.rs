@@ -86,7 +86,6 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
     let mut end_stop_ms = vec![start.end_stops.empty || start.end_stops.full];
     let mut entries = StateEntries::default();
     let mut settled_at: Option<u32> = None;
-    let mut started = false;
     let mut now_ms = 0u32;
     loop {
         // Injections due now.
@@ -121,7 +120,6 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
         let truth = plant.truth();
         let outputs = ctrl.step(&inputs);
         entries.note(outputs.state, now_ms);
-        started |= outputs.state != State::Idle;
         steps.push(StepRecord {
             inputs,
             outputs,
@@ -137,7 +135,8 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
         })?;
         now_ms += CONTROL_PERIOD_MS;
 
-        let settled = outputs.state == State::Fault || (started && outputs.state == State::Idle);
+        let settled = outputs.state == State::Fault
+            || (entries.first_ms().is_some() && outputs.state == State::Idle);
         if settled {
             let since = *settled_at.get_or_insert(now_ms);
             if now_ms >= since + scenario.tail_ms {

@@ -42,6 +42,7 @@ pub enum Trigger {
 pub struct StateEntries {
     entries: Vec<(State, u32, u32)>,
     previous: Option<State>,
+    first_ms: Option<u32>,
 }
 
 impl StateEntries {
@@ -53,6 +54,7 @@ impl StateEntries {
             return;
         }
         self.previous = Some(state);
+        self.first_ms.get_or_insert(now_ms);
         match self.entries.iter_mut().find(|(s, _, _)| *s == state) {
             Some(e) => {
                 e.1 += 1;
@@ -60,6 +62,11 @@ impl StateEntries {
             }
             None => self.entries.push((state, 1, now_ms)),
         }
+    }
+
+    /// When the controller first left Idle (ms), if it has.
+    pub fn first_ms(&self) -> Option<u32> {
+        self.first_ms
     }
 
     /// Whether `trigger` is due: [`Trigger::AtMs`] against `scenario_ms`,

@@ -291,8 +291,6 @@ fn uart_rx(mut port: Box<dyn SerialPort>, control: &Control) {
 /// injections fire on the controller's states.
 fn plant_clock(rig: &SharedRig, control: &Control, mut pending: Vec<Injection>) {
     let mut entries = StateEntries::default();
-    let mut previous = State::Idle;
-    let mut started_ms: Option<u32> = None;
     while !control.stop.load(Ordering::Relaxed) {
         let now_ms = tasks::now_ms();
         let state = State::ALL
@@ -300,12 +298,6 @@ fn plant_clock(rig: &SharedRig, control: &Control, mut pending: Vec<Injection>) 
             .copied()
             .unwrap_or(State::Idle);
         entries.note(state, now_ms);
-        if state != previous {
-            if previous == State::Idle && started_ms.is_none() {
-                started_ms = Some(now_ms);
-            }
-            previous = state;
-        }
         {
             let mut r = lock(rig);
             let (valve, advance) = (r.valve_open, r.advance_on);
@@ -313,8 +305,9 @@ fn plant_clock(rig: &SharedRig, control: &Control, mut pending: Vec<Injection>) 
             r.plant.advance_to(now_ms, 100);
             // Scenario times count from its start command, which the
             // emulator gives at START_MS.
-            let scenario_ms =
-                started_ms.map(|s| now_ms.saturating_sub(s) + emulator::scenario::START_MS);
+            let scenario_ms = entries
+                .first_ms()
+                .map(|s| now_ms.saturating_sub(s) + emulator::scenario::START_MS);
             pending.retain(|inj| {
                 let due = entries.due(&inj.at, scenario_ms, now_ms);
                 if due {
