@@ -54,6 +54,17 @@ pub struct DiagnoseOptions {
     pub max_effects: usize,
 }
 
+impl DiagnoseOptions {
+    /// Whether a fit pays on the shared counts: ΔBIC `delta_bic` at most
+    /// [`DiagnoseOptions::max_delta_bic`] and its held-out RMSE
+    /// `heldout_kpa` down by [`DiagnoseOptions::min_heldout_gain`] from
+    /// the current model's `current_heldout_kpa`.
+    fn gains(&self, delta_bic: f64, heldout_kpa: f64, current_heldout_kpa: f64) -> bool {
+        delta_bic <= self.max_delta_bic
+            && heldout_kpa <= current_heldout_kpa * (1.0 - self.min_heldout_gain)
+    }
+}
+
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         Self {
@@ -458,6 +469,8 @@ fn diagnose_skipping(
             break;
         }
         let excess = (current.rmse_kpa.powi(2) - noise * noise).max(1e-12);
+        // The share of that excess a fit with RMSE `rmse` removes.
+        let explained = |rmse: f64| (current.rmse_kpa.powi(2) - rmse.powi(2)) / excess;
         let current_bic = current.bic();
         let mut fits: Vec<(Fit, Candidate)> = tries
             .par_iter()
@@ -470,7 +483,6 @@ fn diagnose_skipping(
                         fit_effects(basis, &data, current.space.baseline, effects, opts.fit).ok()
                     })
                     .min_by(|a, b| a.ssr.total_cmp(&b.ssr))?;
-                let explained = (current.rmse_kpa.powi(2) - fit.rmse_kpa.powi(2)) / excess;
                 let own = format!("{}.", spec.name);
                 let at_bound = fit
                     .params
@@ -500,7 +512,7 @@ fn diagnose_skipping(
                     heldout_folds_better: None,
                     bic: fit.bic(),
                     score: fit.bic() - current_bic,
-                    excess_explained: explained,
+                    excess_explained: explained(fit.rmse_kpa),
                     params: fit.params.clone(),
                     at_bound,
                     indistinct,
@@ -539,8 +551,7 @@ fn diagnose_skipping(
             }
             cand.refusals = cand.own_refusals(form, noise, folds_worse);
             let Some(h) = held else { continue };
-            let pays = cand.score <= opts.max_delta_bic
-                && h.overall <= current_heldout.overall * (1.0 - opts.min_heldout_gain)
+            let pays = opts.gains(cand.score, h.overall, current_heldout.overall)
                 && cand.excess_explained >= opts.min_excess_explained
                 && cand.refusals.is_empty()
                 && (form || physical < opts.max_effects);
@@ -555,11 +566,10 @@ fn diagnose_skipping(
         let mut added = 1;
         if best.is_none() {
             let pays_but_excess = |f: &(Fit, Candidate)| {
-                f.1.score <= opts.max_delta_bic
-                    && f.1.refusals.is_empty()
-                    && f.1.heldout_rmse_kpa.is_some_and(|h| {
-                        h <= current_heldout.overall * (1.0 - opts.min_heldout_gain)
-                    })
+                f.1.refusals.is_empty()
+                    && f.1
+                        .heldout_rmse_kpa
+                        .is_some_and(|h| opts.gains(f.1.score, h, current_heldout.overall))
                     && f.0
                         .space
                         .effects
@@ -576,19 +586,18 @@ fn diagnose_skipping(
                     fit_effects(basis, &data, current.space.baseline, effects, opts.fit)
                 {
                     let h = heldout(&fit, &data, &masks, opts);
-                    let explained = (current.rmse_kpa.powi(2) - fit.rmse_kpa.powi(2)) / excess;
                     let own_bound = fit.params.iter().any(|p| {
                         p.at_bound
                             && [&a.1.effect, &b.1.effect]
                                 .iter()
                                 .any(|e| p.name.starts_with(&format!("{e}.")))
                     });
-                    let pays = fit.bic() - current_bic <= opts.max_delta_bic
-                        && h.overall <= current_heldout.overall * (1.0 - opts.min_heldout_gain)
-                        && h.better_folds(&current_heldout) + opts.max_folds_worse + 1
-                            >= h.folds.len()
-                        && explained >= opts.min_excess_explained
-                        && !own_bound;
+                    let pays =
+                        opts.gains(fit.bic() - current_bic, h.overall, current_heldout.overall)
+                            && h.better_folds(&current_heldout) + opts.max_folds_worse + 1
+                                >= h.folds.len()
+                            && explained(fit.rmse_kpa) >= opts.min_excess_explained
+                            && !own_bound;
                     if pays {
                         best = Some((fit, h));
                         added = 2;
