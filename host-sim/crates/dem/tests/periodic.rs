@@ -173,6 +173,22 @@ fn grains_meet_across_a_periodic_face_as_in_the_middle_of_the_box() {
     }
 }
 
+/// A rod of the actuator's radius (9.35 mm) along y through the origin,
+/// the grains outside it, of the sand's material.
+fn rod(spec: &ContactSpec) -> Wall {
+    let mat = sand();
+    Wall::cylinder(
+        Vector3::zeros(),
+        Vector3::y(),
+        9.35e-3,
+        CylinderSide::Outside,
+        &mat,
+        &mat,
+        spec,
+    )
+    .unwrap()
+}
+
 /// The force on grain 0 at a step's first evaluation.
 struct FirstForce(Option<Vector3<f64>>);
 
@@ -192,16 +208,7 @@ fn a_growing_cylinder_pushes_like_a_grain_moving_onto_it() {
     let u = 0.02;
     let force = |growth: f64, grain_v: f64| {
         let mut params = Params::new(&mat, &spec, 1.0e-6).unwrap();
-        let mut rod = Wall::cylinder(
-            Vector3::zeros(),
-            Vector3::y(),
-            9.35e-3,
-            CylinderSide::Outside,
-            &mat,
-            &mat,
-            &spec,
-        )
-        .unwrap();
+        let mut rod = rod(&spec);
         rod.normal_velocity_m_s = growth;
         params.walls.push(rod);
         let mut p = Particles::new();
@@ -236,16 +243,7 @@ fn a_grain_resting_on_a_rod_loads_it_with_its_weight_along_the_normal() {
     let mut params = Params::new(&mat, &spec, 2.0e-6).unwrap();
     params.gravity_m_s2 = Vector3::new(0.0, 0.0, -9.81);
     params.walls = vec![
-        Wall::cylinder(
-            Vector3::zeros(),
-            Vector3::y(),
-            9.35e-3,
-            CylinderSide::Outside,
-            &mat,
-            &mat,
-            &spec,
-        )
-        .unwrap(),
+        rod(&spec),
         Wall::plane(
             Vector3::new(0.02, 0.0, 0.0),
             -Vector3::x(),
