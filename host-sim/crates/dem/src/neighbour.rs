@@ -327,25 +327,7 @@ impl Grid {
             for cy in range(1) {
                 let row = (cz * self.dims[1] + cy) * self.dims[0];
                 let xs = range(0);
-                // Cells of a row are contiguous in the sorted order.
-                let (a, b) = (
-                    self.cell_start[row + xs.start()] as usize,
-                    self.cell_start[row + xs.end() + 1] as usize,
-                );
-                // Every candidate is written, the count advances only for
-                // the kept ones: no branch on the (unpredictable) test.
-                let mut m = out.len();
-                out.resize(m + (b - a), 0);
-                for (&j, s) in self.cell_particles[a..b]
-                    .iter()
-                    .zip(&self.cell_sphere_m[a..b])
-                {
-                    let d = Vector3::new(s[0], s[1], s[2]) - x;
-                    let cut = r_m + s[3] + skin_m;
-                    out[m] = j;
-                    m += usize::from((j > i) & (d.norm_squared() < cut * cut));
-                }
-                out.truncate(m);
+                self.scan::<false>(i, x, [r_m, skin_m], row, (*xs.start(), *xs.end()), out);
             }
         }
     }
@@ -399,31 +381,51 @@ impl Grid {
         for &cz in &zs[..nz] {
             for &cy in &ys[..ny] {
                 let row = (cz * self.dims[1] + cy) * self.dims[0];
-                for &(x0, x1) in &runs[..nruns] {
-                    // Cells of a row are contiguous in the sorted order.
-                    let (a, b) = (
-                        self.cell_start[row + x0] as usize,
-                        self.cell_start[row + x1 + 1] as usize,
-                    );
-                    // Every candidate is written, the count advances only
-                    // for the kept ones: no branch on the (unpredictable)
-                    // test.
-                    let mut m = out.len();
-                    out.resize(m + (b - a), 0);
-                    for (&j, s) in self.cell_particles[a..b]
-                        .iter()
-                        .zip(&self.cell_sphere_m[a..b])
-                    {
-                        let y = Vector3::new(s[0], s[1], s[2]);
-                        let d = self.images.separation(&x, &y);
-                        let cut = r_m + s[3] + skin_m;
-                        out[m] = j;
-                        m += usize::from((j > i) & (d.norm_squared() < cut * cut));
-                    }
-                    out.truncate(m);
+                for &run in &runs[..nruns] {
+                    self.scan::<true>(i, x, [r_m, skin_m], row, run, out);
                 }
             }
         }
+    }
+
+    /// Appends to `out` each j > i in the cells `x0..=x1` of the row
+    /// starting at cell `row` whose surface is within the skin of particle
+    /// i's (at `x`; `[radius, skin]` in m), the separation taken by the
+    /// nearest image with `PERIODIC`.
+    #[inline(always)]
+    fn scan<const PERIODIC: bool>(
+        &self,
+        i: u32,
+        x: Vector3<f64>,
+        [r_m, skin_m]: [f64; 2],
+        row: usize,
+        (x0, x1): (usize, usize),
+        out: &mut Vec<u32>,
+    ) {
+        // Cells of a row are contiguous in the sorted order.
+        let (a, b) = (
+            self.cell_start[row + x0] as usize,
+            self.cell_start[row + x1 + 1] as usize,
+        );
+        // Every candidate is written, the count advances only for the kept
+        // ones: no branch on the (unpredictable) test.
+        let mut m = out.len();
+        out.resize(m + (b - a), 0);
+        for (&j, s) in self.cell_particles[a..b]
+            .iter()
+            .zip(&self.cell_sphere_m[a..b])
+        {
+            let y = Vector3::new(s[0], s[1], s[2]);
+            let d = if PERIODIC {
+                self.images.separation(&x, &y)
+            } else {
+                y - x
+            };
+            let cut = r_m + s[3] + skin_m;
+            out[m] = j;
+            m += usize::from((j > i) & (d.norm_squared() < cut * cut));
+        }
+        out.truncate(m);
     }
 }
 
