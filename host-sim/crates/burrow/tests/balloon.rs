@@ -310,7 +310,7 @@ fn a_split_run_merges_to_the_same_bits_as_one_machine() {
             .finish()
             .unwrap()
             .unwrap()
-            .contains("of the ensemble's 4 cases"));
+            .contains("of the command's 4 cases"));
         parts.push(dir);
     }
     // Part 1 holds cases 0 and 3: seed 1 at 40 mm, seed 2 at 50 mm.

@@ -9,12 +9,14 @@
 //! crate only says which cases a part holds and checks that the parts
 //! fit together (same command, every part once, every case once).
 
+use std::cell::{Cell, RefCell};
 use std::fmt;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use anyhow::{bail, ensure, Context, Result};
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 /// The manifest each part writes at the root of its folder.
@@ -104,6 +106,144 @@ impl Part {
             Part::Merge => false,
         }
     }
+}
+
+/// Runs, skips or reads back the cases of one command, in the command's
+/// order: each case is a closure giving its results, kept as JSON in the
+/// case's folder, from which a merge reads them back bit for bit
+/// (`serde_json`'s `float_roundtrip`).
+#[derive(Debug)]
+pub struct Cases {
+    part: Part,
+    root: Option<PathBuf>,
+    command: Vec<String>,
+    next: Cell<usize>,
+    ran: RefCell<Vec<PathBuf>>,
+}
+
+impl Cases {
+    /// Every case here.
+    pub fn whole() -> Cases {
+        Cases {
+            part: Part::Whole,
+            root: None,
+            command: Vec::new(),
+            next: Cell::new(0),
+            ran: RefCell::new(Vec::new()),
+        }
+    }
+
+    /// `part` of the command `command` (its part-independent arguments,
+    /// [`Manifest::command`]), whose cases' folders lie under `root`: a
+    /// shard and a merge need one.
+    pub fn new(part: Part, root: Option<&Path>, command: Vec<String>) -> Result<Cases> {
+        ensure!(
+            part == Part::Whole || root.is_some(),
+            "a shard or a merge needs an output folder: each case's record lives in it"
+        );
+        Ok(Cases {
+            part,
+            root: root.map(Path::to_path_buf),
+            command,
+            ..Cases::whole()
+        })
+    }
+
+    /// Which part this is.
+    pub fn part(&self) -> Part {
+        self.part
+    }
+
+    /// The next case, whose folder is `dir` (`None`: nothing kept) and
+    /// whose results `run` gives: run here and kept in `dir/file`, or read
+    /// back from there ([`Part::Merge`]), or `None` when another part runs
+    /// it.
+    pub fn case<T: Serialize + DeserializeOwned>(
+        &self,
+        dir: Option<&Path>,
+        file: &str,
+        run: impl FnOnce() -> Result<T>,
+    ) -> Result<Option<T>> {
+        let k = self.next.get();
+        self.next.set(k + 1);
+        if self.part == Part::Merge {
+            let dir = dir.context("a merged case needs its folder")?;
+            return read_json(dir, file).map(Some);
+        }
+        if !self.part.runs(k) {
+            return Ok(None);
+        }
+        let results = run()?;
+        if let Some(dir) = dir {
+            write_json(dir, file, &results)?;
+            if let (Part::Shard(_), Some(root)) = (self.part, &self.root) {
+                let rel = dir.strip_prefix(root).with_context(|| {
+                    format!(
+                        "the case folder {} is not under the part's folder {}",
+                        dir.display(),
+                        root.display()
+                    )
+                })?;
+                self.ran.borrow_mut().push(rel.to_path_buf());
+            }
+        }
+        Ok(Some(results))
+    }
+
+    /// After the command's last case: a shard writes its manifest and
+    /// says what it ran; other parts return `None`.
+    pub fn finish(&self) -> Result<Option<String>> {
+        let (Part::Shard(shard), Some(root)) = (self.part, &self.root) else {
+            return Ok(None);
+        };
+        let manifest = Manifest {
+            command: self.command.clone(),
+            shard,
+            cases_total: self.next.get(),
+            cases: self.ran.borrow().clone(),
+        };
+        manifest.write(root)?;
+        Ok(Some(format!(
+            "part {shard}: ran {} of the command's {} cases into {}; when every part is done: host-sim merge --out DIR PART_FOLDER...",
+            manifest.cases.len(),
+            manifest.cases_total,
+            root.display()
+        )))
+    }
+}
+
+/// Writes `value` as JSON to `dir/file` (atomically), after checking that
+/// it reads back: JSON has no NaN or infinity (serde_json writes null), and
+/// a file a merge could not read is refused here, where the run that made
+/// it is still known.
+pub fn write_json<T: Serialize + DeserializeOwned>(
+    dir: &Path,
+    file: &str,
+    value: &T,
+) -> Result<()> {
+    let path = dir.join(file);
+    let text =
+        serde_json::to_string(value).with_context(|| format!("encoding {}", path.display()))?;
+    serde_json::from_str::<T>(&text).with_context(|| {
+        format!(
+            "{}: the case produced a value that is not a finite number, which JSON cannot hold",
+            path.display()
+        )
+    })?;
+    datafile::write_atomic(&path, text.as_bytes())
+}
+
+/// Reads `dir/file` as JSON.
+pub fn read_json<T: DeserializeOwned>(dir: &Path, file: &str) -> Result<T> {
+    let path = dir.join(file);
+    let text = fs::read_to_string(&path).with_context(|| {
+        format!(
+            "reading {}: no record of this case (were all parts merged?)",
+            path.display()
+        )
+    })?;
+    serde_json::from_str(&text)
+        .with_context(|| format!("{}: not what this command wrote", path.display()))
 }
 
 /// What a part ran: written by the part, read by [`assemble`].
@@ -386,5 +526,70 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("--shard I/N"), "{e}");
+    }
+
+    #[test]
+    fn cases_run_skip_and_read_back_exactly() {
+        let tmp = tempfile::tempdir().unwrap();
+        let values = [0.1_f64, 1.0 / 3.0, 2f64.sqrt()];
+        let run_all = |cases: &Cases, root: &Path| -> Vec<Option<Vec<f64>>> {
+            (0..3)
+                .map(|k| {
+                    let dir = root.join(format!("case-{k}"));
+                    cases
+                        .case(Some(&dir), "r.json", || Ok(vec![values[k], -values[k]]))
+                        .unwrap()
+                })
+                .collect()
+        };
+        let root = tmp.path().join("p2");
+        let part = Cases::new(
+            Part::Shard(Shard::new(2, 2).unwrap()),
+            Some(&root),
+            vec!["x".into()],
+        )
+        .unwrap();
+        let got = run_all(&part, &root);
+        assert!(got[0].is_none() && got[2].is_none());
+        assert_eq!(got[1].as_deref(), Some(&[values[1], -values[1]][..]));
+        assert!(part
+            .finish()
+            .unwrap()
+            .unwrap()
+            .contains("ran 1 of the command's 3 cases"));
+        let root1 = tmp.path().join("p1");
+        let part1 = Cases::new(
+            Part::Shard(Shard::new(1, 2).unwrap()),
+            Some(&root1),
+            vec!["x".into()],
+        )
+        .unwrap();
+        run_all(&part1, &root1);
+        part1.finish().unwrap();
+        let merged = tmp.path().join("m");
+        assemble(&[root, root1], &merged).unwrap();
+        let merge = Cases::new(Part::Merge, Some(&merged), Vec::new()).unwrap();
+        let back: Vec<Vec<f64>> = (0..3)
+            .map(|k| {
+                merge
+                    .case(
+                        Some(&merged.join(format!("case-{k}"))),
+                        "r.json",
+                        || -> Result<Vec<f64>> { panic!("a merge runs nothing") },
+                    )
+                    .unwrap()
+                    .unwrap()
+            })
+            .collect();
+        for (k, v) in back.iter().enumerate() {
+            assert_eq!(v[0].to_bits(), values[k].to_bits());
+        }
+        // A merge or a shard needs a folder; a NaN cannot be kept.
+        assert!(Cases::new(Part::Merge, None, Vec::new()).is_err());
+        let whole = Cases::whole();
+        let e = whole
+            .case(Some(&tmp.path().join("nan")), "r.json", || Ok(f64::NAN))
+            .unwrap_err();
+        assert!(format!("{e:#}").contains("not a finite number"), "{e:#}");
     }
 }
