@@ -61,6 +61,11 @@ pub enum Command {
     /// runs `simulate` at each depth (default grain radius, no VTK), bins the
     /// sand's share of p_i over D and writes host-sim/data/sand/solver-pe.csv.
     SolverSand(SolverSandArgs),
+    /// Element tests of the DEM sand: drained triaxial compression (φ_peak,
+    /// φ_cv, ψ) and the K0 oedometer test of the scenario's grains, over
+    /// grain radii and seeds. Writes summary.json, summary.txt,
+    /// triaxial.svg, oedometer.svg and one folder per test.
+    SandTest(SandTestArgs),
     /// The code-to-code cavity benchmark (shared/cavity): a rigid cylinder,
     /// periodic along its axis, expanding from 18.7 to 25 mm in a settled
     /// bed. Writes pe.csv (p_e per 1 % of the expansion, the at-rest value
@@ -512,6 +517,33 @@ pub struct BalloonArgs {
     /// Run only part I of N of the cases (seeds × depths), into this
     /// part's own folder; `host-sim merge` gathers the parts (a Slurm job
     /// array: --shard $SLURM_ARRAY_TASK_ID/N with --array=1-N).
+    #[arg(long)]
+    pub shard: Option<shard::Shard>,
+}
+
+/// `host-sim sand-test` arguments.
+#[derive(Args)]
+pub struct SandTestArgs {
+    /// Grain radii (mm), comma-separated.
+    #[arg(long = "radii-mm", value_delimiter = ',', default_values_t = sandtest::study::Plan::default().radii_mm)]
+    pub radii_mm: Vec<f64>,
+    /// Seeds 1..=N of the grains' placement at each radius.
+    #[arg(long, default_value_t = sandtest::study::Plan::default().seeds, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub seeds: u64,
+    /// Grains in a sample.
+    #[arg(long, default_value_t = sandtest::study::Plan::default().grains)]
+    pub grains: usize,
+    /// Confining stresses of the triaxial tests (kPa), comma-separated.
+    #[arg(long = "confining-kpa", value_delimiter = ',', default_values_t = sandtest::study::Plan::default().confining_kpa)]
+    pub confining_kpa: Vec<f64>,
+    /// Axial strain each triaxial test ends at (−).
+    #[arg(long = "axial-strain", default_value_t = sandtest::study::Plan::default().axial_strain)]
+    pub axial_strain: f64,
+    /// Folder for the results.
+    #[arg(long, default_value = "out/sand-test")]
+    pub out: PathBuf,
+    /// Run only part I of N of the tests, into this part's own folder;
+    /// `host-sim merge` gathers the parts.
     #[arg(long)]
     pub shard: Option<shard::Shard>,
 }

@@ -51,6 +51,10 @@ fn run(cli: Cli, argv: Vec<String>) -> Result<()> {
             let command = part_command(&argv, &["--out", "--runs-out"]);
             solver_sand(a, part, command)
         }
+        Command::SandTest(a) => {
+            let part = shard_part(a.shard);
+            sand_test(a, part, part_command(&argv, &["--out"]))
+        }
         Command::Cavity(a) => cavity(a),
         Command::Bench {
             what:
@@ -154,8 +158,8 @@ fn part_command(argv: &[String], folders: &[&str]) -> Vec<String> {
 
 /// After a command's cases: a shard says what it ran (and wrote its
 /// manifest), the others print the command's results.
-fn finish<T>(runner: &Runner, done: Option<T>, print: impl FnOnce(T)) -> Result<()> {
-    match (runner.finish()?, done) {
+fn finish<T>(shard_line: Option<String>, done: Option<T>, print: impl FnOnce(T)) -> Result<()> {
+    match (shard_line, done) {
         (Some(line), _) => println!("{line}"),
         (None, Some(done)) => print(done),
         (None, None) => anyhow::bail!("the command ran only some of its cases"),
@@ -174,7 +178,7 @@ fn simulate(
     let out = plan.out().to_path_buf();
     let runner = Runner::new(part, Some(&out), argv)?;
     let done = plan.run_part(&runner)?;
-    finish(&runner, done, |outcome| {
+    finish(runner.finish()?, done, |outcome| {
         print!("{}", outcome.text());
         println!("wrote {}", out.display());
     })
@@ -196,6 +200,10 @@ fn merge(out: &std::path::Path, parts: &[PathBuf]) -> Result<()> {
         Command::Balloon(mut a) => {
             a.out = out.to_path_buf();
             balloon(a, Part::Merge, command)
+        }
+        Command::SandTest(mut a) => {
+            a.out = out.to_path_buf();
+            sand_test(a, Part::Merge, command)
         }
         Command::SolverSand(mut a) => {
             // The data file beside the runs, under the repository's name.
@@ -235,8 +243,24 @@ fn balloon(a: args::BalloonArgs, part: Part, argv: Vec<String>) -> Result<()> {
     }
     let runner = Runner::new(part, Some(&a.out), argv)?;
     let done = run_part(&opts, &runner)?;
-    finish(&runner, done, |run| {
+    finish(runner.finish()?, done, |run| {
         print!("{}", run.text());
+        println!("wrote {}", a.out.display());
+    })
+}
+
+fn sand_test(a: args::SandTestArgs, part: Part, command: Vec<String>) -> Result<()> {
+    let plan = sandtest::study::Plan {
+        radii_mm: a.radii_mm,
+        seeds: a.seeds,
+        grains: a.grains,
+        confining_kpa: a.confining_kpa,
+        axial_strain: a.axial_strain,
+    };
+    let cases = shard::Cases::new(part, Some(&a.out), command)?;
+    let done = sandtest::study::run(&plan, &a.out, &cases, part != Part::Merge)?;
+    finish(cases.finish()?, done, |study| {
+        print!("{}", study.summary().text());
         println!("wrote {}", a.out.display());
     })
 }
@@ -320,7 +344,9 @@ fn solver_sand(a: args::SolverSandArgs, part: Part, argv: Vec<String>) -> Result
             run.wall_s
         );
     })?;
-    finish(&runner, done, |_| println!("wrote {}", out.display()))
+    finish(runner.finish()?, done, |_| {
+        println!("wrote {}", out.display())
+    })
 }
 
 fn emulate(a: args::EmulateArgs) -> Result<()> {

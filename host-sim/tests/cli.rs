@@ -92,3 +92,88 @@ fn cli_merge_refuses_parts_that_do_not_make_an_ensemble() {
         "{stderr}"
     );
 }
+
+#[test]
+fn cli_sand_test_splits_and_merges_into_the_same_summary() {
+    let host_sim = || std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"));
+    let dir = tempfile::tempdir().unwrap();
+    // Two radii, one seed, 150 grains, sheared to 6 %: four short tests.
+    let plan = [
+        "sand-test",
+        "--radii-mm",
+        "1.5,1.0",
+        "--seeds",
+        "1",
+        "--grains",
+        "150",
+        "--confining-kpa",
+        "4",
+        "--axial-strain",
+        "0.06",
+    ];
+    let whole = dir.path().join("whole");
+    let out = host_sim()
+        .args(plan)
+        .arg("--out")
+        .arg(&whole)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut parts = Vec::new();
+    for i in 1..=2 {
+        let part = dir.path().join(format!("part-{i}"));
+        let out = host_sim()
+            .args(plan)
+            .args(["--shard", &format!("{i}/2"), "--out"])
+            .arg(&part)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(String::from_utf8_lossy(&out.stdout).contains("ran 2 of the command's 4 cases"));
+        parts.push(part);
+    }
+    let merged = dir.path().join("merged");
+    let out = host_sim()
+        .arg("merge")
+        .arg("--out")
+        .arg(&merged)
+        .args(&parts)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for file in [
+        "summary.json",
+        "summary.txt",
+        "triaxial.svg",
+        "oedometer.svg",
+    ] {
+        let a = std::fs::read(whole.join(file)).unwrap();
+        assert!(
+            a == std::fs::read(merged.join(file)).unwrap(),
+            "{file} differs"
+        );
+    }
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(whole.join("summary.json")).unwrap()).unwrap();
+    // The dense sample dilates and peaks above its critical state; its
+    // angles lie between a frictionless packing's (≈ 6°) and 45°.
+    let row = &summary["triaxial"][2];
+    assert!(row["radius_mm"].is_null(), "{row}");
+    let peak = row["peak_deg"]["mean"].as_f64().unwrap();
+    let dilatancy = row["dilatancy_deg"]["mean"].as_f64().unwrap();
+    assert!((10.0..45.0).contains(&peak) && dilatancy > 0.0, "{row}");
+    let k0 = summary["oedometer"][8 + 3]["k0"]["mean"].as_f64().unwrap();
+    assert!((0.2..0.9).contains(&k0), "K0 {k0}");
+}

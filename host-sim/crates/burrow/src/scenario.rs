@@ -712,6 +712,16 @@ impl ScenarioSpec {
         self.dt_at_s(self.grain_modulus_pa)
     }
 
+    /// The grains as the expansion meets them: their material (at
+    /// [`ScenarioSpec::grain_modulus_pa`]), their contact law with one
+    /// another (friction, rolling resistance, restitution) and the time
+    /// step of the expansion (s). The element tests of the sand take them
+    /// from here.
+    pub fn grains(&self) -> (Material, ContactSpec, f64) {
+        let laws = Laws::of(self, self.grain_modulus_pa);
+        (laws.mat, laws.rough, laws.dt_s)
+    }
+
     /// DEM time step while the bed settles (s), as [`ScenarioSpec::dt_s`]
     /// for the deposition modulus.
     pub fn settle_dt_s(&self) -> f64 {
