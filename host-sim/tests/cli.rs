@@ -8,6 +8,34 @@ use rig::{Experiment, PressureSource};
 mod fixtures;
 use fixtures::{noisy_capture, RIG_NO_SAND};
 
+/// The binary, to be given its arguments.
+fn host_sim() -> std::process::Command {
+    std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+}
+
+/// Runs `cmd`, which must succeed (else its stderr is the failure); its
+/// stdout.
+fn succeeds(cmd: &mut std::process::Command) -> String {
+    let out = cmd.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Runs `cmd`, which must fail; its stderr.
+fn fails(cmd: &mut std::process::Command) -> String {
+    let out = cmd.output().unwrap();
+    assert!(
+        !out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 #[test]
 fn cli_telemetry_writes_a_readable_folder() {
     let dir = tempfile::tempdir().unwrap();
@@ -16,22 +44,17 @@ fn cli_telemetry_writes_a_readable_folder() {
     let rig = dir.path().join("my-rig.toml");
     std::fs::write(&rig, RIG_NO_SAND).unwrap();
     let out: PathBuf = dir.path().join("out");
-    let status = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .arg("telemetry")
-        .arg(&capture)
-        .arg("--out")
-        .arg(&out)
-        .arg("--rig")
-        .arg(&rig)
-        .args(["--run", "bench", "--depth-mm", "0"])
-        .output()
-        .unwrap();
-    assert!(
-        status.status.success(),
-        "{}",
-        String::from_utf8_lossy(&status.stderr)
+    let stdout = succeeds(
+        host_sim()
+            .arg("telemetry")
+            .arg(&capture)
+            .arg("--out")
+            .arg(&out)
+            .arg("--rig")
+            .arg(&rig)
+            .args(["--run", "bench", "--depth-mm", "0"]),
     );
-    assert!(String::from_utf8_lossy(&status.stdout).contains("run bench: 3 samples at depth 0 mm"));
+    assert!(stdout.contains("run bench: 3 samples at depth 0 mm"));
     let exp = Experiment::read(&out).unwrap();
     assert_eq!(exp.runs[0].id, "bench");
     assert_eq!(
@@ -40,17 +63,15 @@ fn cli_telemetry_writes_a_readable_folder() {
     );
 
     // Without a depth and with a sand-free rig, a buried run is refused.
-    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .arg("telemetry")
-        .arg(&capture)
-        .arg("--out")
-        .arg(dir.path().join("out2"))
-        .arg("--rig")
-        .arg(&rig)
-        .output()
-        .unwrap();
-    assert!(!bad.status.success());
-    let stderr = String::from_utf8_lossy(&bad.stderr);
+    let stderr = fails(
+        host_sim()
+            .arg("telemetry")
+            .arg(&capture)
+            .arg("--out")
+            .arg(dir.path().join("out2"))
+            .arg("--rig")
+            .arg(&rig),
+    );
     assert!(
         stderr.contains("rig.toml: sand: missing section"),
         "{stderr}"
@@ -59,34 +80,24 @@ fn cli_telemetry_writes_a_readable_folder() {
 
 #[test]
 fn cli_merge_refuses_parts_that_do_not_make_an_ensemble() {
-    let host_sim = || std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"));
     let dir = tempfile::tempdir().unwrap();
     // A part number beyond the count is refused when parsed.
-    let bad = host_sim()
-        .args(["balloon", "--shard", "3/2", "--out"])
-        .arg(dir.path().join("b"))
-        .output()
-        .unwrap();
-    assert!(!bad.status.success());
-    let stderr = String::from_utf8_lossy(&bad.stderr);
+    let stderr = fails(
+        host_sim()
+            .args(["balloon", "--shard", "3/2", "--out"])
+            .arg(dir.path().join("b")),
+    );
     assert!(stderr.contains("between 1 and 2"), "{stderr}");
     // solver-sand's parts need a folder for their runs.
-    let bad = host_sim()
-        .args(["solver-sand", "--shard", "1/2"])
-        .output()
-        .unwrap();
-    assert!(!bad.status.success());
-    let stderr = String::from_utf8_lossy(&bad.stderr);
+    let stderr = fails(host_sim().args(["solver-sand", "--shard", "1/2"]));
     assert!(stderr.contains("--runs-out"), "{stderr}");
     // A folder that no part wrote.
-    let out = host_sim()
-        .args(["merge", "--out"])
-        .arg(dir.path().join("merged"))
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = fails(
+        host_sim()
+            .args(["merge", "--out"])
+            .arg(dir.path().join("merged"))
+            .arg(dir.path()),
+    );
     assert!(
         stderr.contains("shard.json") && stderr.contains("--shard I/N"),
         "{stderr}"
@@ -95,7 +106,6 @@ fn cli_merge_refuses_parts_that_do_not_make_an_ensemble() {
 
 #[test]
 fn cli_sand_test_splits_and_merges_into_the_same_summary() {
-    let host_sim = || std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"));
     let dir = tempfile::tempdir().unwrap();
     // Two radii, one seed, 150 grains, sheared to 6 %: four short tests.
     let plan = [
@@ -112,46 +122,26 @@ fn cli_sand_test_splits_and_merges_into_the_same_summary() {
         "0.06",
     ];
     let whole = dir.path().join("whole");
-    let out = host_sim()
-        .args(plan)
-        .arg("--out")
-        .arg(&whole)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeds(host_sim().args(plan).arg("--out").arg(&whole));
     let mut parts = Vec::new();
     for i in 1..=2 {
         let part = dir.path().join(format!("part-{i}"));
-        let out = host_sim()
-            .args(plan)
-            .args(["--shard", &format!("{i}/2"), "--out"])
-            .arg(&part)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        let stdout = succeeds(
+            host_sim()
+                .args(plan)
+                .args(["--shard", &format!("{i}/2"), "--out"])
+                .arg(&part),
         );
-        assert!(String::from_utf8_lossy(&out.stdout).contains("ran 2 of the command's 4 cases"));
+        assert!(stdout.contains("ran 2 of the command's 4 cases"));
         parts.push(part);
     }
     let merged = dir.path().join("merged");
-    let out = host_sim()
-        .arg("merge")
-        .arg("--out")
-        .arg(&merged)
-        .args(&parts)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeeds(
+        host_sim()
+            .arg("merge")
+            .arg("--out")
+            .arg(&merged)
+            .args(&parts),
     );
     for file in [
         "summary.json",

@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{ensure, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use plot::plot_err;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -399,6 +400,41 @@ impl Study {
         }
     }
 
+    /// The colour of grain radius `r_mm` (mm) in every plot.
+    fn radius_colour(&self, r_mm: f64) -> RGBColor {
+        let colours = [BLUE, RED, GREEN, MAGENTA, CYAN];
+        let k = self
+            .plan
+            .radii_mm
+            .iter()
+            .position(|&x| x == r_mm)
+            .unwrap_or(0);
+        colours[k % colours.len()]
+    }
+
+    /// Draws every test's curve `(radius_mm, points)` in its radius'
+    /// colour, one legend entry per radius.
+    fn draw_by_radius(
+        &self,
+        chart: &mut ChartContext<'_, SVGBackend<'_>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+        curves: &[(f64, Vec<(f64, f64)>)],
+    ) -> Result<()> {
+        for &r in &self.plan.radii_mm {
+            let c = self.radius_colour(r);
+            for (j, (_, pts)) in curves.iter().filter(|(x, _)| *x == r).enumerate() {
+                let series = chart
+                    .draw_series(LineSeries::new(pts.iter().copied(), c.mix(0.6)))
+                    .map_err(plot_err)?;
+                if j == 0 {
+                    series
+                        .label(format!("r = {r} mm"))
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// The mobilised friction angle and the volumetric strain against the
     /// axial strain, every test, coloured by radius (SVG).
     pub fn triaxial_svg(&self) -> Result<String> {
@@ -407,11 +443,6 @@ impl Study {
             let root = SVGBackend::with_string(&mut svg, (900, 820)).into_drawing_area();
             root.fill(&WHITE).map_err(plot_err)?;
             let (top, bottom) = root.split_vertically(430);
-            let colours = [BLUE, RED, GREEN, MAGENTA, CYAN];
-            let colour = |r: f64| {
-                let k = self.plan.radii_mm.iter().position(|&x| x == r).unwrap_or(0);
-                colours[k % colours.len()]
-            };
             let eps = self.plan.axial_strain * 100.0;
             let mut chart = ChartBuilder::on(&top)
                 .caption(
@@ -432,29 +463,16 @@ impl Study {
                 .y_desc("asin((σ1 − σ3)/(σ1 + σ3)) (°)")
                 .draw()
                 .map_err(plot_err)?;
-            for &r in &self.plan.radii_mm {
-                let c = colour(r);
-                for (j, case) in self
-                    .triaxial
-                    .iter()
-                    .filter(|t| t.sample.radius_mm == r)
-                    .enumerate()
-                {
-                    let pts = case
-                        .test
-                        .records
-                        .iter()
-                        .map(|x| (x.axial_strain * 100.0, x.friction_angle_deg()));
-                    let series = chart
-                        .draw_series(LineSeries::new(pts, c.mix(0.6)))
-                        .map_err(plot_err)?;
-                    if j == 0 {
-                        series
-                            .label(format!("r = {r} mm"))
-                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
-                    }
-                }
-            }
+            let curves: Vec<(f64, Vec<(f64, f64)>)> = self
+                .triaxial
+                .iter()
+                .map(|t| {
+                    let pts = t.test.records.iter();
+                    let pts = pts.map(|x| (x.axial_strain * 100.0, x.friction_angle_deg()));
+                    (t.sample.radius_mm, pts.collect())
+                })
+                .collect();
+            self.draw_by_radius(&mut chart, &curves)?;
             chart
                 .configure_series_labels()
                 .background_style(WHITE.mix(0.8))
@@ -489,7 +507,10 @@ impl Study {
                     .iter()
                     .map(|x| (x.axial_strain * 100.0, -x.volumetric_strain * 100.0));
                 chart
-                    .draw_series(LineSeries::new(pts, colour(case.sample.radius_mm).mix(0.6)))
+                    .draw_series(LineSeries::new(
+                        pts,
+                        self.radius_colour(case.sample.radius_mm).mix(0.6),
+                    ))
                     .map_err(plot_err)?;
             }
             root.present().map_err(plot_err)?;
@@ -525,31 +546,18 @@ impl Study {
                 .y_desc("σ_h/σ_v")
                 .draw()
                 .map_err(plot_err)?;
-            let colours = [BLUE, RED, GREEN, MAGENTA, CYAN];
-            for (k, &r) in self.plan.radii_mm.iter().enumerate() {
-                let c = colours[k % colours.len()];
-                for (j, case) in self
-                    .oedometer
-                    .iter()
-                    .filter(|t| t.sample.radius_mm == r)
-                    .enumerate()
-                {
-                    let pts = case
-                        .test
-                        .records
-                        .iter()
+            let curves: Vec<(f64, Vec<(f64, f64)>)> = self
+                .oedometer
+                .iter()
+                .map(|t| {
+                    let pts = t.test.records.iter();
+                    let pts = pts
                         .filter(|x| x.axial_pa() > 0.5 * OEDOMETER_START_PA)
                         .map(|x| (x.axial_pa() * 1e-3, x.lateral_pa() / x.axial_pa()));
-                    let series = chart
-                        .draw_series(LineSeries::new(pts, c.mix(0.6)))
-                        .map_err(plot_err)?;
-                    if j == 0 {
-                        series
-                            .label(format!("r = {r} mm"))
-                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
-                    }
-                }
-            }
+                    (t.sample.radius_mm, pts.collect())
+                })
+                .collect();
+            self.draw_by_radius(&mut chart, &curves)?;
             for (p, k0) in self.summary().jaky_k0 {
                 chart
                     .draw_series(LineSeries::new(
