@@ -17,6 +17,9 @@
 //!   virtual COM port;
 //! - [`store`]: an uploaded table and the sensor's zero in flash, over
 //!   any `embedded-storage` NOR flash;
+//! - [`safety`]: the outputs' safe levels and the one routine that sets
+//!   them (boot, the Fault state, the panic and HardFault handlers);
+//! - [`reset_cause`]: the record a panic leaves for the next boot;
 //! - [`replay`]: the format of recorded emulator runs and the checker that
 //!   replays them through the controller (host-sim records, the QEMU build
 //!   and the host check).
@@ -34,6 +37,8 @@ pub mod controller;
 pub mod drivers;
 pub mod protocol;
 pub mod replay;
+pub mod reset_cause;
+pub mod safety;
 pub mod selftest;
 pub mod store;
 pub mod table;

@@ -24,8 +24,8 @@ mod firmware {
     use embassy_stm32::wdg::IndependentWatchdog;
     use embassy_stm32::{bind_interrupts, dma, i2c, peripherals, usart, Config};
     use embassy_sync::mutex::Mutex;
-    use panic_probe as _;
     use static_cell::StaticCell;
+    use urechis::board::safe::{drive_outputs_safe, take_reset_record};
     use urechis::board::{
         control_task, pump_task, rx_task, sensor_task, tx_task, BoardFlash, BoardStore,
         ControlOutputs, Pump, Sensor, RX_RING_BYTES, SHARED, WATCHDOG_TIMEOUT_US,
@@ -59,6 +59,11 @@ mod firmware {
 
     #[embassy_executor::main]
     async fn main(spawner: Spawner) {
+        // Before anything else: every output at its safe level (the same
+        // routine as the Fault state and the panic handler), and why the
+        // last run ended.
+        let _ = drive_outputs_safe();
+        let panicked = take_reset_record();
         let mut config = Config::default();
         {
             // HSI 16 MHz / 8 = 2 MHz into the PLL (the input ST recommends,
@@ -86,12 +91,16 @@ mod firmware {
         let p = embassy_stm32::init(config);
         embassy_stm32::pac::RCC.csr().modify(|w| w.set_rmvf(true));
         defmt::info!(
-            "urechis {} (reset: watchdog {}, pin {}, power-on {})",
+            "urechis {} (reset: watchdog {}, pin {}, power-on {}, software {})",
             env!("CARGO_PKG_VERSION"),
             csr.wdgrstf(),
             csr.padrstf(),
-            csr.porrstf()
+            csr.porrstf(),
+            csr.sftrstf()
         );
+        if let Some((kind, pc)) = panicked {
+            defmt::error!("the last run ended in a {} (pc {=u32:#010x})", kind, pc);
+        }
 
         // Table: an uploaded one from flash if it verifies, else the
         // compiled-in one (a bad one is logged; the controller refuses
@@ -172,7 +181,11 @@ mod firmware {
         let rx = rx.into_ring_buffered(RX_RING.init([0; RX_RING_BYTES]));
 
         let mut controller = Controller::with_default_params(table);
-        if csr.wdgrstf() {
+        if panicked.is_some() {
+            // The handler drove the outputs safe and reset: come back up
+            // latched, reporting the panic as a panic.
+            controller.latch_fault(Fault::Panic);
+        } else if csr.wdgrstf() {
             // The last run's control loop starved the watchdog: come back up
             // latched in the safe state, not in Idle.
             controller.latch_fault(Fault::ControlOverrun);

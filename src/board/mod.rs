@@ -10,15 +10,20 @@
 //! |---|---|---|
 //! | I²C1 SCL | PB8 (D15) | MS5837 SCL; 100 kHz, external 4.7 kΩ pull-ups to 3.3 V |
 //! | I²C1 SDA | PB9 (D14) | MS5837 SDA |
-//! | STEP | PA10 (D2) | stepper driver STEP (A4988/DRV8825), idles low |
+//! | STEP | PA10 (D2) | stepper driver STEP (A4988/DRV8825), idles low; fit a 10 kΩ pull-down so no edge steps the motor while the MCU is in reset |
 //! | DIR | PB3 (D3) | stepper driver DIR (PB3 is SWO: leave SWO trace off) |
-//! | ENABLE | PB5 (D4) | stepper driver EN, active low; boots high (off). Fit a 10 kΩ pull-up so the driver also stays off while the MCU is in reset |
+//! | ENABLE | PB5 (D4) | stepper driver EN, active low; boots high (off). Fit a 10 kΩ pull-up to 3.3 V so the driver also stays off while the MCU is in reset |
 //! | end-stop EMPTY | PB4 (D5) | switch to GND, internal pull-up, closed = low (plunger fully in) |
 //! | end-stop FULL | PB10 (D6) | switch to GND, internal pull-up, closed = low (plunger fully out) |
-//! | relief valve | PA8 (D7) | through a MOSFET to a normally-open valve: high = energised = closed; reset or fault vents |
-//! | advance drive | PA9 (D8) | high = external advance drive on |
+//! | relief valve | PA8 (D7) | logic-level N-MOSFET gate to a normally-open valve: high = energised = closed; fit 100 Ω in series and a 100 kΩ gate-source pull-down so the valve vents while the MCU is in reset |
+//! | advance drive | PA9 (D8) | high = external advance drive on; fit a 10 kΩ pull-down so the drive stays off while the MCU is in reset |
 //! | USART2 TX | PA2 | ST-LINK virtual COM port, 115200 8N1 |
 //! | USART2 RX | PA3 | ST-LINK virtual COM port |
+//!
+//! Every output's resistor holds the level [`crate::safety::safe_outputs`]
+//! drives, so the rig is as safe with the MCU in reset (pins floating) as
+//! after a fault or a panic. DIR needs none: it does nothing with the
+//! driver off.
 //!
 //! Sensor and pump grounds go to the NUCLEO's GND; the stepper driver's motor
 //! supply is separate. Clocks: HSI 16 MHz → /8 = 2 MHz PLL input (ST's
@@ -34,19 +39,23 @@
 //! its longest period around each erase and restores it afterwards. Erases
 //! happen only in Idle (a table upload, every 8,192nd tare).
 
+pub mod safe;
+
 use embassy_stm32::flash::{Blocking, Flash};
-use embassy_stm32::gpio::{Input, Level, Output};
+use embassy_stm32::gpio::{Input, Output};
 use embassy_stm32::i2c::{I2c, Master};
 use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals::IWDG;
 use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
 use embassy_stm32::wdg::IndependentWatchdog;
+use embedded_hal::digital::OutputPin;
 use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
 
 use crate::controller::Controller;
 use crate::drivers::ms5837::Ms5837;
 use crate::drivers::pump::SyringePump;
 use crate::protocol::Hello;
+use crate::safety::{advance_level, valve_level};
 use crate::tasks::control::BootInfo;
 use crate::tasks::{self, ControlIo, Shared, StoreMutex};
 
@@ -88,14 +97,17 @@ pub struct ControlOutputs {
 
 impl ControlIo for ControlOutputs {
     fn set_relief_valve_open(&mut self, open: bool) {
-        // Normally open valve: energised (high) = closed.
-        self.relief_valve
-            .set_level(if open { Level::Low } else { Level::High });
+        // Infallible on the STM32.
+        let _ = self.relief_valve.set_state(valve_level(open));
     }
 
     fn set_advance_drive(&mut self, on: bool) {
-        self.advance_drive
-            .set_level(if on { Level::High } else { Level::Low });
+        let _ = self.advance_drive.set_state(advance_level(on));
+    }
+
+    fn drive_safe(&mut self) {
+        // Register writes: infallible.
+        let _ = safe::drive_outputs_safe();
     }
 
     fn start_watchdog(&mut self) {

@@ -54,7 +54,8 @@ pub const fn detection_bound_ms(fault: Fault, params: &Params) -> u32 {
             2 * (periods + 1) * t
         }
         Fault::DiameterMismatch => params.diameter_mismatch_ms.saturating_add(t),
-        Fault::ControlOverrun => 0,
+        // Latched at boot from the handler's record, no detection time.
+        Fault::ControlOverrun | Fault::Panic => 0,
         Fault::LinkLoss => {
             if params.link_timeout_ms == 0 {
                 0

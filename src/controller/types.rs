@@ -66,11 +66,15 @@ pub enum Fault {
     /// No host frame for longer than `link_timeout_ms` while a cycle ran:
     /// the host (or its cable) is gone.
     LinkLoss,
+    /// The firmware panicked or took a HardFault: its handler drove the
+    /// outputs safe and reset the MCU, and the next boot comes up latched
+    /// with this fault ([`crate::reset_cause`]).
+    Panic,
 }
 
 impl Fault {
     /// Every fault kind, in declaration order (codecs and tests walk it).
-    pub const ALL: [Fault; 12] = [
+    pub const ALL: [Fault; 13] = [
         Fault::OverPressure,
         Fault::SensorBus,
         Fault::SensorOutOfRange,
@@ -83,6 +87,7 @@ impl Fault {
         Fault::DiameterMismatch,
         Fault::ControlOverrun,
         Fault::LinkLoss,
+        Fault::Panic,
     ];
 }
 
@@ -268,6 +273,7 @@ mod tests {
                 Fault::DiameterMismatch => 9,
                 Fault::ControlOverrun => 10,
                 Fault::LinkLoss => 11,
+                Fault::Panic => 12,
             };
             assert_eq!(k, i);
         }

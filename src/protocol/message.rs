@@ -18,7 +18,9 @@ use crate::table::Table;
 ///
 /// 2: `Heartbeat`, `Tare`, `GetInfo` and the table upload; `Info`;
 /// telemetry carries the pressure zero; `Params` has `link_timeout_ms`.
-pub const PROTOCOL_VERSION: u16 = 2;
+/// 3: `Fault::Panic`; `CommandError::SensorRange` and
+/// `TareError::SensorRange` (a limit the fitted sensor cannot see).
+pub const PROTOCOL_VERSION: u16 = 3;
 
 /// Largest table-image piece in one [`HostCommand::TableChunk`] (bytes):
 /// with its offset and the message's other bytes it stays well inside

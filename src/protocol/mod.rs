@@ -69,7 +69,7 @@
 //!
 //! # Messages
 //!
-//! This is version 2 ([`PROTOCOL_VERSION`]); a host must check the
+//! This is version 3 ([`PROTOCOL_VERSION`]); a host must check the
 //! version in `Hello` or `Info` and refuse another one.
 //!
 //! Host → device: [`HostMessage`] `{ seq: u8, body: HostCommand }`; every

@@ -32,6 +32,11 @@ pub trait ControlIo {
     fn start_watchdog(&mut self);
     /// Feeds the watchdog.
     fn feed_watchdog(&mut self);
+    /// Drives every output to its safe level with
+    /// [`crate::safety::safe_outputs`] (driver off, STEP low, valve vented,
+    /// advance off), whoever owns the pin otherwise: called before the
+    /// first step and on every step in the Fault state.
+    fn drive_safe(&mut self);
 }
 
 /// What the board found at boot, for [`Info`].
@@ -53,7 +58,8 @@ pub struct BootInfo {
 /// controller, then signals the pump command, sets the valve and advance
 /// outputs, queues the command's reply and one telemetry sample (counted
 /// in [`Shared::telemetry_dropped`] when the queue is full), and feeds the
-/// watchdog only if `feed_watchdog`. `GetParams` and `GetInfo` are
+/// watchdog only if `feed_watchdog`. In the Fault state (and once before
+/// the first step) the outputs are set by [`ControlIo::drive_safe`]. `GetParams` and `GetInfo` are
 /// answered from the controller; `Tare` is passed to the sensor task in
 /// Idle and refused otherwise.
 pub async fn run<IO: ControlIo>(
@@ -73,6 +79,7 @@ pub async fn run<IO: ControlIo>(
             );
         }
     }
+    io.drive_safe();
     io.start_watchdog();
     log_info!("control: running every {} ms", CONTROL_PERIOD_MS);
 
@@ -123,8 +130,14 @@ pub async fn run<IO: ControlIo>(
         }
         shared.set_state(out.state);
         shared.pump_command.signal(out.pump);
-        io.set_relief_valve_open(out.relief_valve_open);
-        io.set_advance_drive(out.advance_drive);
+        if out.state == State::Fault {
+            // The same routine as boot and the panic handler: the pump
+            // task's Disable follows, but the pins do not wait for it.
+            io.drive_safe();
+        } else {
+            io.set_relief_valve_open(out.relief_valve_open);
+            io.set_advance_drive(out.advance_drive);
+        }
         if let (Some(msg), Some(result)) = (&request, out.command_result) {
             // Requests answered above (GetParams, GetInfo, Tare) only fed
             // the link watch; their Heartbeat's result is no reply.

@@ -20,6 +20,7 @@ use urechis::drivers::ms5837::{
     CMD_CONVERT_D2, CMD_PROM_READ, CMD_RESET,
 };
 use urechis::drivers::pump::Direction;
+use urechis::safety::{advance_level, safe_outputs, valve_level, SafePins};
 use urechis::tasks::ControlIo;
 
 /// Everything the board's pins and bus touch, shared with the plant's
@@ -59,7 +60,7 @@ pub fn lock(rig: &SharedRig) -> MutexGuard<'_, Rig> {
     rig.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Which pump pin.
+/// Which output pin.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PinRole {
     /// STEP: a rising edge with the driver on moves one microstep.
@@ -68,9 +69,14 @@ pub enum PinRole {
     Dir,
     /// ENABLE, active low.
     Enable,
+    /// The relief valve's gate: high = energised = closed.
+    Valve,
+    /// The advance drive: high = on.
+    Advance,
 }
 
-/// One of the pump driver's inputs.
+/// One of the board's output pins (the pump driver's inputs, the valve,
+/// the advance drive).
 pub struct PumpPin {
     rig: SharedRig,
     role: PinRole,
@@ -101,6 +107,8 @@ impl PumpPin {
             }
             PinRole::Dir => r.dir_high = high,
             PinRole::Enable => r.enabled = !high,
+            PinRole::Valve => r.valve_open = !high,
+            PinRole::Advance => r.advance_on = high,
         }
     }
 }
@@ -169,13 +177,29 @@ impl Outputs {
     }
 }
 
+impl Outputs {
+    fn pin(&self, role: PinRole) -> PumpPin {
+        PumpPin::new(Arc::clone(&self.rig), role)
+    }
+}
+
 impl ControlIo for Outputs {
     fn set_relief_valve_open(&mut self, open: bool) {
-        lock(&self.rig).valve_open = open;
+        let _ = self.pin(PinRole::Valve).set_state(valve_level(open));
     }
 
     fn set_advance_drive(&mut self, on: bool) {
-        lock(&self.rig).advance_on = on;
+        let _ = self.pin(PinRole::Advance).set_state(advance_level(on));
+    }
+
+    fn drive_safe(&mut self) {
+        // The board's routine, on the simulated pins (infallible).
+        let _ = safe_outputs(SafePins {
+            driver_enable: &mut self.pin(PinRole::Enable),
+            step: &mut self.pin(PinRole::Step),
+            relief_valve: &mut self.pin(PinRole::Valve),
+            advance_drive: &mut self.pin(PinRole::Advance),
+        });
     }
 
     fn start_watchdog(&mut self) {}
