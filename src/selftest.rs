@@ -22,7 +22,7 @@ use crate::controller::{
     detection_bound_ms, Command, CommandError, Controller, EndStops, ExpandEnd, ExpansionZone,
     Fault, Inputs, Outputs, ParamField, Params, PressureSample, PumpCommand, State,
     CONTROL_OVERRUN_LIMIT_MS, CONTROL_PERIOD_MS, PLATEAU_CONFIRM_SAMPLES, PLATEAU_WINDOW_SAMPLES,
-    PRESSURE_ZERO_RANGE_KPA, RANGES,
+    PRESSURE_ZERO_RANGE_KPA, RANGES, SENSOR_SPECIFIED_KPA,
 };
 use crate::table::{Table, TableError, CHECKSUM_ALGORITHM, FORMAT_VERSION};
 
@@ -752,7 +752,7 @@ fn set_params_rejected_whole() -> Result<(), &'static str> {
     }
     // The cross-field rule: a limit the sensor cannot measure.
     let mut p = good;
-    p.max_pressure_kpa = 120.0;
+    p.max_pressure_kpa = p.sensor_max_kpa;
     let out = bench.step(Some(Command::SetParams(p)));
     ensure(
         out.command_result
@@ -1273,7 +1273,40 @@ fn pressure_zero_gates_start() -> Result<(), &'static str> {
             "telemetry does not carry the zero in force",
         )?;
     }
-    for zero in [lo, BENCH_ZERO_KPA, hi] {
+    // A zero in range with which the fitted sensor cannot see a limit: the
+    // trip above its specified maximum, the floor below its minimum.
+    let (spec_lo, spec_hi) = SENSOR_SPECIFIED_KPA;
+    let p = *bench.ctrl.params();
+    let low_floor = Params {
+        sensor_min_kpa: spec_lo - lo - 1.0,
+        ..p
+    };
+    for (zero, params, field) in [
+        (
+            spec_hi - p.max_pressure_kpa + 0.5,
+            p,
+            ParamField::MaxPressureKpa,
+        ),
+        (lo, low_floor, ParamField::SensorMinKpa),
+    ] {
+        if !(lo..=hi).contains(&zero) || params.validate().is_err() {
+            // Not reachable with this sensor model's ranges.
+            continue;
+        }
+        let out = bench.step(Some(Command::SetParams(params)));
+        ensure(out.command_result == Some(Ok(())), "SetParams refused")?;
+        bench.ctrl.set_pressure_zero(Some(zero));
+        let out = bench.step(Some(Command::Start));
+        ensure(
+            out.command_result == Some(Err(CommandError::SensorRange(field))),
+            "Start accepted with a limit the sensor cannot see",
+        )?;
+        ensure(out.state == State::Idle, "refused Start left Idle")?;
+    }
+    let out = bench.step(Some(Command::SetParams(p)));
+    ensure(out.command_result == Some(Ok(())), "SetParams refused")?;
+    let highest = spec_hi - p.max_pressure_kpa;
+    for zero in [lo, BENCH_ZERO_KPA, highest.min(hi)] {
         bench.ctrl.set_pressure_zero(Some(zero));
         let out = bench.step(Some(Command::Start));
         ensure(

@@ -187,7 +187,7 @@ fn full_chunk() -> HostCommand {
     }
 }
 
-const COMMAND_ERRORS: [CommandError; 12] = [
+const COMMAND_ERRORS: [CommandError; 14] = [
     CommandError::Busy,
     CommandError::Faulted,
     CommandError::BadTable(TableError::Version),
@@ -204,6 +204,8 @@ const COMMAND_ERRORS: [CommandError; 12] = [
     }),
     CommandError::CauseActive,
     CommandError::NoPressureZero,
+    CommandError::SensorRange(ParamField::MaxPressureKpa),
+    CommandError::SensorRange(ParamField::SensorMinKpa),
 ];
 
 const FRAME_ERRORS: [FrameError; 6] = [
@@ -284,6 +286,7 @@ fn every_device_message() -> Vec<DeviceMessage> {
             measured_kpa: 150.0,
         }),
         NackReason::Tare(TareError::Sensor),
+        NackReason::Tare(TareError::SensorRange(ParamField::MaxPressureKpa)),
     ] {
         all.push(DeviceMessage::nack(5, reason));
     }
@@ -324,6 +327,27 @@ fn start_frame_bytes() {
 fn ack_frame_bytes() {
     let msg = DeviceMessage::Ack { seq: 1 };
     assert_eq!(device_frame(&msg), [0x01, 0x04, 0x01, 0x0D, 0x2E, 0x00]);
+}
+
+#[test]
+fn sensor_range_nack_bytes() {
+    // Nack = tag 1; seq Some(17) = 01 11; Command = 0; SensorRange = 6;
+    // MaxPressureKpa = field 7.
+    let payload = [0x01, 0x01, 0x11, 0x00, 0x06, 0x07];
+    let msg = DeviceMessage::command_reply(
+        17,
+        Err(CommandError::SensorRange(ParamField::MaxPressureKpa)),
+    );
+    assert_eq!(postcard_bytes(&msg), payload);
+    let frame = [0x04, 0x01, 0x01, 0x11, 0x05, 0x06, 0x07, 0x56, 0xB3, 0x00];
+    assert_eq!(device_frame(&msg), frame);
+    assert_eq!(doc_frame(&payload), frame);
+    // Telemetry's fault Some(Panic) = 01 0C.
+    let panic = DeviceMessage::Sample(Telemetry {
+        fault: Some(Fault::Panic),
+        ..sample()
+    });
+    assert_eq!(postcard_bytes(&panic)[12..14], [0x01, 0x0C]);
 }
 
 #[test]
@@ -572,7 +596,7 @@ const STATES: [State; 6] = [
     State::Advance,
     State::Fault,
 ];
-const FAULTS: [Fault; 12] = [
+const FAULTS: [Fault; 13] = [
     Fault::OverPressure,
     Fault::SensorBus,
     Fault::SensorOutOfRange,
@@ -585,6 +609,7 @@ const FAULTS: [Fault; 12] = [
     Fault::DiameterMismatch,
     Fault::ControlOverrun,
     Fault::LinkLoss,
+    Fault::Panic,
 ];
 
 fn any_telemetry() -> impl Strategy<Value = Telemetry> {

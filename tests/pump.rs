@@ -143,11 +143,17 @@ fn validate_names_the_first_bad_field() {
         bad(|c| c.syringe_bore_mm = f32::INFINITY),
         Err(SyringeBoreMm)
     );
-    assert_eq!(bad(|c| c.max_rate_ml_per_s = 0.0), Err(MaxRateMlPerS));
-    // 100 mL/s would need a microstep every 4.19 µs, under the 5 µs the
-    // pulse sequence takes; 80 mL/s (5.24 µs) is still legal.
-    assert_eq!(bad(|c| c.max_rate_ml_per_s = 100.0), Err(MaxRateMlPerS));
-    assert_eq!(bad(|c| c.max_rate_ml_per_s = 80.0), Ok(()));
+    // 4 mL/s at 256 microsteps: one every 6.55 µs with a 2 mm lead, legal;
+    // with a 1 mm lead every 3.27 µs, under the 5 µs the pulse sequence
+    // takes.
+    assert_eq!(bad(|c| c.microsteps = 256), Ok(()));
+    assert_eq!(
+        bad(|c| {
+            c.microsteps = 256;
+            c.lead_pitch_mm = 1.0;
+        }),
+        Err(Microsteps)
+    );
     assert_eq!(bad(|c| c.stroke_ml = f32::NAN), Err(StrokeMl));
     // 1e6 mL = 2.39e9 microsteps, beyond i32::MAX / 2.
     assert_eq!(bad(|c| c.stroke_ml = 1.0e6), Err(StrokeMl));
@@ -467,12 +473,20 @@ fn disable_blocks_further_steps() {
 }
 
 #[test]
-fn default_cycle_rates_fit_the_default_pump() {
-    // The controller's default expand and shrink rates must be reachable by
-    // the default pump, or the pump clamps them and the cycle runs slower
-    // than its parameters say.
+fn accepted_cycle_rates_fit_the_pump() {
+    // Every rate the controller accepts must be reachable by the pump, or
+    // the pump clamps it and the cycle (and its stall bound) runs slower
+    // than its parameters say: one constant bounds both.
+    use urechis::controller::ParamField;
+    use urechis::drivers::pump::MAX_RATE_ML_PER_S;
+    assert_eq!(MAX_RATE_ML_PER_S, 4.0);
+    for field in [ParamField::ExpandRateMlPerS, ParamField::ShrinkRateMlPerS] {
+        assert_eq!(field.range().max, MAX_RATE_ML_PER_S);
+    }
     let pump = urechis::drivers::pump::PumpConfig::default();
-    let params = urechis::controller::Params::DEFAULT;
-    assert!(params.expand_rate_ml_per_s <= pump.max_rate_ml_per_s);
-    assert!(params.shrink_rate_ml_per_s <= pump.max_rate_ml_per_s);
+    // The clamp: 10 mL/s steps at the 4 mL/s interval.
+    assert_eq!(
+        pump.step_interval_us(10.0),
+        pump.step_interval_us(MAX_RATE_ML_PER_S)
+    );
 }

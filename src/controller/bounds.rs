@@ -6,8 +6,63 @@
 //! [`detection_bound_ms`]; the `*_DETECT_MS` constants are their values for
 //! [`Params::DEFAULT`]. The self-test scenarios check every one of them.
 
-use super::params::Params;
+use super::params::{ParamField, Params};
 use super::types::Fault;
+use crate::drivers::ms5837::Model;
+
+/// The pressure sensor this build is for: one model per build, as fitted.
+/// The MS5837-02BA by default (the wiring's part: 300–1200 mbar absolute
+/// specified, 1 Pa resolution); the cargo feature `sensor-30ba` builds
+/// for the MS5837-30BA (0–30 bar) instead, for rigs that need more than
+/// the 02BA's ≈ 18 kPa gauge at sea level.
+pub const SENSOR_MODEL: Model = if cfg!(feature = "sensor-30ba") {
+    Model::Bar30
+} else {
+    Model::Bar02
+};
+
+/// Absolute pressures the fitted sensor is specified over (kPa): every
+/// pressure limit must lie inside them ([`sensor_sees_limits`], the ranges
+/// of `max_pressure_kpa`, `sensor_min_kpa` and `sensor_max_kpa`).
+pub const SENSOR_SPECIFIED_KPA: (f32, f32) = SENSOR_MODEL.specified_kpa();
+
+/// Largest gauge pressure (kPa) the fitted sensor can see with the lowest
+/// accepted zero: the ceiling of `max_pressure_kpa` and `sensor_max_kpa`
+/// (02BA: 120 − 70 = 50 kPa). The zero in force lowers it further; `Start`
+/// and a tare check that ([`sensor_sees_limits`]).
+pub const SENSOR_MAX_GAUGE_KPA: f32 = SENSOR_SPECIFIED_KPA.1 - PRESSURE_ZERO_RANGE_KPA.0;
+
+/// Lowest gauge pressure (kPa) the fitted sensor can see with the highest
+/// accepted zero, but no lower than −100 kPa (a vacuum at sea level): the
+/// floor of `sensor_min_kpa` (02BA: 30 − 115 = −85 kPa).
+pub const SENSOR_MIN_GAUGE_KPA: f32 = {
+    let floor = SENSOR_SPECIFIED_KPA.0 - PRESSURE_ZERO_RANGE_KPA.1;
+    if floor > -100.0 {
+        floor
+    } else {
+        -100.0
+    }
+};
+
+/// Checks that with the gauge zero `zero_kpa` (absolute) the fitted sensor
+/// can see both pressure limits of `params`: `zero + max_pressure_kpa` no
+/// higher than the top of [`SENSOR_SPECIFIED_KPA`] (else the trip could
+/// sit where the reading is not to be trusted) and `zero + sensor_min_kpa`
+/// no lower than its bottom. `Start` and a new tare are refused otherwise,
+/// naming the field. A NaN anywhere fails.
+pub fn sensor_sees_limits(zero_kpa: f32, params: &Params) -> Result<(), ParamField> {
+    let (lo, hi) = SENSOR_SPECIFIED_KPA;
+    // Written so that NaN fails.
+    let trip_visible = zero_kpa + params.max_pressure_kpa <= hi;
+    if !trip_visible {
+        return Err(ParamField::MaxPressureKpa);
+    }
+    let floor_visible = zero_kpa + params.sensor_min_kpa >= lo;
+    if !floor_visible {
+        return Err(ParamField::SensorMinKpa);
+    }
+    Ok(())
+}
 
 /// Control period (ms): the board calls `Controller::step` at 100 Hz.
 pub const CONTROL_PERIOD_MS: u32 = 10;
@@ -125,6 +180,38 @@ mod tests {
         assert_eq!(PUMP_STALL_DETECT_MS, 1020);
         assert_eq!(DIAMETER_MISMATCH_DETECT_MS, 510);
         assert_eq!(LINK_LOSS_DETECT_MS, 2010);
+    }
+
+    #[test]
+    fn limits_the_02ba_can_see() {
+        if SENSOR_MODEL != Model::Bar02 {
+            return;
+        }
+        assert_eq!(SENSOR_MAX_GAUGE_KPA, 50.0);
+        assert_eq!(SENSOR_MIN_GAUGE_KPA, -85.0);
+        let p = Params::DEFAULT;
+        // Sea level: 101.3 + 15 = 116.3 kPa ≤ 120.
+        assert_eq!(sensor_sees_limits(101.325, &p), Ok(()));
+        // The default trip is visible for every zero up to 105 kPa.
+        assert_eq!(sensor_sees_limits(105.0, &p), Ok(()));
+        assert_eq!(
+            sensor_sees_limits(105.1, &p),
+            Err(ParamField::MaxPressureKpa)
+        );
+        let low = Params {
+            sensor_min_kpa: -70.0,
+            ..p
+        };
+        // 101.3 − 70 = 31.3 kPa ≥ 30; 99 − 70 = 29 kPa is below the 02BA.
+        assert_eq!(sensor_sees_limits(101.325, &low), Ok(()));
+        assert_eq!(
+            sensor_sees_limits(99.0, &low),
+            Err(ParamField::SensorMinKpa)
+        );
+        assert_eq!(
+            sensor_sees_limits(f32::NAN, &p),
+            Err(ParamField::MaxPressureKpa)
+        );
     }
 
     #[test]

@@ -2,7 +2,9 @@
 //! [`Inputs`] to [`Outputs`]. See [`crate::controller`] for the cycle and
 //! the fault table.
 
-use super::bounds::{pressure_zero_in_range, CONTROL_OVERRUN_LIMIT_MS, CONTROL_PERIOD_MS};
+use super::bounds::{
+    pressure_zero_in_range, sensor_sees_limits, CONTROL_OVERRUN_LIMIT_MS, CONTROL_PERIOD_MS,
+};
 use super::geometry::ExpansionZone;
 use super::monitors::{LeakMonitor, MismatchMonitor, SensorMonitor, StallMonitor};
 use super::params::{ParamError, Params};
@@ -387,9 +389,11 @@ impl<'t> Controller<'t> {
             Command::Start if !idle => Err(CommandError::Busy),
             Command::Start => {
                 self.table_status.map_err(CommandError::BadTable)?;
-                if !self.pressure_zero_kpa.is_some_and(pressure_zero_in_range) {
-                    return Err(CommandError::NoPressureZero);
-                }
+                let zero = match self.pressure_zero_kpa {
+                    Some(zero) if pressure_zero_in_range(zero) => zero,
+                    _ => return Err(CommandError::NoPressureZero),
+                };
+                sensor_sees_limits(zero, &self.params).map_err(CommandError::SensorRange)?;
                 if self.alarm.is_some() || m.pressure_kpa.is_none() {
                     return Err(CommandError::CauseActive);
                 }

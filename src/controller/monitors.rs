@@ -304,7 +304,7 @@ mod tests {
                 (Some(Fault::SensorOutOfRange), false)
             );
         }
-        for high in [30.01, 1e30, f32::INFINITY] {
+        for high in [15.01, 1e30, f32::INFINITY] {
             let r = m.observe(&reading(high, 0), 0, false, &p);
             assert_eq!((r.condition, r.over_pressure), (None, true));
         }
@@ -313,7 +313,7 @@ mod tests {
             m.observe(&PressureSample::BusError, 10, false, &p)
                 .over_pressure
         );
-        assert!(!m.observe(&reading(29.99, 20), 20, false, &p).over_pressure);
+        assert!(!m.observe(&reading(14.99, 20), 20, false, &p).over_pressure);
     }
 
     #[test]

@@ -2,7 +2,10 @@
 //! is rejected whole: the controller never runs half of a new set.
 //!
 //! Every field has a closed range in [`RANGES`] (also given in each field's
-//! doc). [`Params::validate`] checks every field against it (NaN fails every
+//! doc). The ranges of the pressure limits come from the fitted sensor
+//! model ([`SENSOR_MODEL`](super::SENSOR_MODEL)) and those of the rates
+//! from the pump ([`MAX_RATE_ML_PER_S`]): no host can set a limit the
+//! hardware cannot honour. [`Params::validate`] checks every field against it (NaN fails every
 //! range) plus one cross-field rule: `max_pressure_kpa < sensor_max_kpa`, so
 //! the limit is always inside what the sensor can measure (reported as
 //! [`ParamField::MaxPressureKpa`]), and one on the host link: a cycle
@@ -10,6 +13,9 @@
 //! (`link_timeout_ms` > 0, reported as [`ParamField::LinkTimeoutMs`]).
 
 use serde::{Deserialize, Serialize};
+
+use super::bounds::{SENSOR_MAX_GAUGE_KPA, SENSOR_MIN_GAUGE_KPA};
+use crate::drivers::pump::MAX_RATE_ML_PER_S;
 
 /// Tunable parameters of the burrowing cycle and its safety limits.
 ///
@@ -26,9 +32,11 @@ pub struct Params {
     /// Expansion stops when the estimated outer diameter reaches this (mm).
     /// Range 10–50.
     pub target_diameter_mm: f32,
-    /// Injection rate while expanding (mL/s). Range 0.05–10.
+    /// Injection rate while expanding (mL/s). Range 0.05 to the pump's
+    /// [`MAX_RATE_ML_PER_S`] (4).
     pub expand_rate_ml_per_s: f32,
-    /// Withdrawal rate while shrinking (mL/s, positive number). Range 0.05–10.
+    /// Withdrawal rate while shrinking (mL/s, positive number). Range 0.05
+    /// to the pump's [`MAX_RATE_ML_PER_S`] (4).
     pub shrink_rate_ml_per_s: f32,
     /// Time at constant volume after expanding (ms). Range 0–60 000.
     pub hold_ms: u32,
@@ -36,8 +44,15 @@ pub struct Params {
     pub advance_ms: u32,
     /// Number of cycles to run after `Start`; 0 = until `Stop`. Any value.
     pub cycles: u16,
-    /// Over-pressure limit (kPa), enforced independently of the table, in
-    /// every state. Range 1–200, and below `sensor_max_kpa`.
+    /// Over-pressure limit (kPa gauge), enforced independently of the
+    /// table, in every state. Range 1 to what the fitted sensor can see
+    /// ([`SENSOR_MAX_GAUGE_KPA`](super::SENSOR_MAX_GAUGE_KPA), 50 for the
+    /// 02BA), and below `sensor_max_kpa`; `Start` and a tare also refuse a
+    /// zero with which `zero + max_pressure_kpa` passes the sensor's
+    /// specified maximum ([`sensor_sees_limits`](super::sensor_sees_limits)).
+    /// Default 15: sea level's 101.3 kPa plus 15 is 116.3 kPa, inside the
+    /// 02BA's 120, and the deepest emulated cycles (100 mm of sand) peak
+    /// near 6 kPa.
     pub max_pressure_kpa: f32,
     /// Largest net volume the pump may have injected since power-up (mL);
     /// beyond it is a fault. Range 0.5–50 (a 50 mL syringe).
@@ -88,10 +103,15 @@ pub struct Params {
     /// injected sucks on the skin. Range −10–0.
     pub min_volume_ml: f32,
     /// Lowest plausible sensor reading (kPa gauge); below it (or NaN, or −∞)
-    /// is a sensor fault. Range −100–0.
+    /// is a sensor fault. Range from what the fitted sensor can see
+    /// ([`SENSOR_MIN_GAUGE_KPA`](super::SENSOR_MIN_GAUGE_KPA), −85 for the
+    /// 02BA) to 0; `Start` and a tare also check it against the zero.
     pub sensor_min_kpa: f32,
-    /// Sensor full scale (kPa gauge). Readings above `max_pressure_kpa` are
-    /// always treated as over-pressure, saturated or not. Range 1–1000.
+    /// Sensor full scale (kPa gauge): `max_pressure_kpa` must lie below it.
+    /// Readings above `max_pressure_kpa` are always treated as
+    /// over-pressure, saturated or not. Range 1 to
+    /// [`SENSOR_MAX_GAUGE_KPA`](super::SENSOR_MAX_GAUGE_KPA) (50 for the
+    /// 02BA). Default 18: the 02BA's 120 kPa less sea level's 101.3.
     pub sensor_max_kpa: f32,
     /// A reading older than this when the step sees it is stale (ms).
     /// Range 10–1000.
@@ -178,12 +198,12 @@ const fn range(field: ParamField, min: f32, max: f32) -> FieldRange {
 pub const RANGES: [FieldRange; 26] = [
     range(ParamField::DepthMm, 0.0, 200.0),
     range(ParamField::TargetDiameterMm, 10.0, 50.0),
-    range(ParamField::ExpandRateMlPerS, 0.05, 10.0),
-    range(ParamField::ShrinkRateMlPerS, 0.05, 10.0),
+    range(ParamField::ExpandRateMlPerS, 0.05, MAX_RATE_ML_PER_S),
+    range(ParamField::ShrinkRateMlPerS, 0.05, MAX_RATE_ML_PER_S),
     range(ParamField::HoldMs, 0.0, 60_000.0),
     range(ParamField::AdvanceMs, 0.0, 60_000.0),
     range(ParamField::Cycles, 0.0, u16::MAX as f32),
-    range(ParamField::MaxPressureKpa, 1.0, 200.0),
+    range(ParamField::MaxPressureKpa, 1.0, SENSOR_MAX_GAUGE_KPA),
     range(ParamField::MaxVolumeMl, 0.5, 50.0),
     range(ParamField::PlateauSlopeFraction, 0.0, 0.9),
     range(ParamField::LeakMaxDropKpa, 0.05, 50.0),
@@ -196,8 +216,8 @@ pub const RANGES: [FieldRange; 26] = [
     range(ParamField::PlateauMinSlopeKpaPerMl, 0.01, 100.0),
     range(ParamField::RestToleranceMl, 0.001, 1.0),
     range(ParamField::MinVolumeMl, -10.0, 0.0),
-    range(ParamField::SensorMinKpa, -100.0, 0.0),
-    range(ParamField::SensorMaxKpa, 1.0, 1000.0),
+    range(ParamField::SensorMinKpa, SENSOR_MIN_GAUGE_KPA, 0.0),
+    range(ParamField::SensorMaxKpa, 1.0, SENSOR_MAX_GAUGE_KPA),
     range(ParamField::SensorStaleMs, 10.0, 1000.0),
     range(ParamField::SensorFrozenMs, 20.0, 10_000.0),
     range(ParamField::SensorBusErrorSteps, 1.0, 100.0),
@@ -227,7 +247,7 @@ impl Params {
         hold_ms: 500,
         advance_ms: 1000,
         cycles: 0,
-        max_pressure_kpa: 30.0,
+        max_pressure_kpa: 15.0,
         max_volume_ml: 10.0,
         plateau_slope_fraction: 0.1,
         leak_max_drop_kpa: 0.3,
@@ -241,7 +261,7 @@ impl Params {
         rest_tolerance_ml: 0.05,
         min_volume_ml: -0.5,
         sensor_min_kpa: -20.0,
-        sensor_max_kpa: 100.0,
+        sensor_max_kpa: 18.0,
         sensor_stale_ms: 50,
         sensor_frozen_ms: 300,
         sensor_bus_error_steps: 3,

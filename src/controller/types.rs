@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::params::{ParamError, Params};
+use super::params::{ParamError, ParamField, Params};
 use crate::table::TableError;
 
 /// Phase of the burrowing cycle.
@@ -130,6 +130,10 @@ pub enum CommandError {
     /// [`PRESSURE_ZERO_RANGE_KPA`](super::PRESSURE_ZERO_RANGE_KPA): tare
     /// first (or again).
     NoPressureZero,
+    /// `Start` with a zero at which the fitted sensor cannot see this
+    /// limit ([`sensor_sees_limits`](super::sensor_sees_limits)): the
+    /// field to lower (or raise), or tare where the atmosphere is lower.
+    SensorRange(ParamField),
 }
 
 /// The latest pressure sample as the sensor task delivers it.

@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::frame::FrameError;
-use crate::controller::{Command, CommandError, Fault, Params, State, Telemetry};
+use crate::controller::{Command, CommandError, Fault, ParamField, Params, State, Telemetry};
 use crate::table::image::ImageError;
 use crate::table::Table;
 
@@ -165,6 +165,10 @@ pub enum TareError {
     Flash,
     /// A tare is already under way.
     Busy,
+    /// With this zero the fitted sensor could not see this limit of the
+    /// parameters in force
+    /// ([`sensor_sees_limits`](crate::controller::sensor_sees_limits)).
+    SensorRange(ParamField),
 }
 
 /// Why the device refused a host message.

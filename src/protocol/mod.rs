@@ -139,6 +139,11 @@
 //! `DeviceMessage::Ack { seq: 1 }`: payload `00 01`, CRC 0x0D2E,
 //! frame `01 04 01 0D 2E 00`.
 //!
+//! `Start` refused because the fitted sensor could not see the trip
+//! (`Nack { seq: Some(17), reason: Command(SensorRange(MaxPressureKpa)) }`):
+//! payload `01 01 11 00 06 07`, CRC 0x56B3, frame
+//! `04 01 01 11 05 06 07 56 B3 00`.
+//!
 //! `DeviceMessage::Sample` with `t_ms = 1000`, `volume_ml = 0.5`,
 //! `pressure_kpa = 1.25`, `state = Expand`, `fault = None`,
 //! `diameter_volume_mm = 19.0`, `diameter_table_mm = 19.25`, `cycle = 2`,

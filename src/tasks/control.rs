@@ -8,7 +8,7 @@ use core::sync::atomic::Ordering;
 use embassy_time::{with_timeout, Duration, Ticker};
 
 use super::log::{log_info, log_warn};
-use super::{now_ms, PumpStatus, Shared};
+use super::{now_ms, PumpStatus, Shared, TareRequest};
 use crate::controller::{
     Command, Controller, EndStops, Inputs, PressureSample, State, CONTROL_PERIOD_MS,
 };
@@ -188,7 +188,10 @@ fn answer(
             } else if shared.tare.signaled() {
                 shared.reply(DeviceMessage::nack(seq, NackReason::Tare(TareError::Busy)));
             } else {
-                shared.tare.signal(seq);
+                shared.tare.signal(TareRequest {
+                    seq,
+                    params: *controller.params(),
+                });
             }
         }
         _ => {}

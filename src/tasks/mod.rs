@@ -34,7 +34,7 @@ use embassy_sync::watch::Watch;
 
 use embedded_storage::nor_flash::NorFlash;
 
-use crate::controller::{EndStops, PressureSample, PumpCommand, State, Telemetry};
+use crate::controller::{EndStops, Params, PressureSample, PumpCommand, State, Telemetry};
 use crate::protocol::{DeviceMessage, HostMessage, StoredTable};
 use crate::store::Store;
 use crate::table::image::{ImageError, TableBuf};
@@ -49,6 +49,17 @@ pub struct PumpStatus {
     pub volume_ml: f32,
     /// End-stop switches; an unreadable switch reads as closed.
     pub end_stops: EndStops,
+}
+
+/// A tare for the sensor task: the host's sequence number, and the
+/// parameters in force, whose pressure limits the new zero must leave
+/// visible ([`crate::controller::sensor_sees_limits`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TareRequest {
+    /// The host's sequence number, echoed in the reply.
+    pub seq: u8,
+    /// The parameters in force when the tare was asked for.
+    pub params: Params,
 }
 
 /// Depth of [`Shared::requests`]: the control loop takes one request per
@@ -89,9 +100,8 @@ pub struct Shared {
     pub replies: Channel<CriticalSectionRawMutex, DeviceMessage, REPLIES_DEPTH>,
     /// Telemetry samples for the host, one per control step.
     pub telemetry: Channel<CriticalSectionRawMutex, Telemetry, TELEMETRY_DEPTH>,
-    /// A tare asked for by the host (its sequence number), for the sensor
-    /// task.
-    pub tare: Signal<CriticalSectionRawMutex, u8>,
+    /// A tare asked for by the host, for the sensor task.
+    pub tare: Signal<CriticalSectionRawMutex, TareRequest>,
     /// The gauge zero in force (absolute kPa, f32 bits; 0 = none, as 0 kPa
     /// absolute is never a zero): set by the board at boot from the store
     /// and by the sensor task after a tare; the control task hands it to

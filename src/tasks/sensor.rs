@@ -10,13 +10,17 @@ use embedded_storage::nor_flash::NorFlash;
 
 use super::log::{log_info, log_warn};
 use super::{now_ms, Shared, StoreMutex};
-use crate::controller::{pressure_zero_in_range, PressureSample, CONTROL_PERIOD_MS};
+use crate::controller::{
+    pressure_zero_in_range, sensor_sees_limits, Params, PressureSample, CONTROL_PERIOD_MS,
+    SENSOR_MODEL,
+};
 use crate::drivers::ms5837::{Error, Model, Ms5837, Osr};
 use crate::protocol::{DeviceMessage, NackReason, TareError};
 
-/// The part fitted: 0..2 bar absolute, 1 Pa resolution, ample for a head
-/// buried a few decimetres deep.
-pub const MODEL: Model = Model::Bar02;
+/// The part fitted: [`SENSOR_MODEL`], one per build (the MS5837-02BA:
+/// 300–1200 mbar absolute specified, 1 Pa resolution, ample for a head
+/// buried a few decimetres deep).
+pub const MODEL: Model = SENSOR_MODEL;
 
 /// Oversampling: two conversions (pressure, temperature) must fit in one
 /// control period with the bus traffic. OSR 1024 takes at most
@@ -81,7 +85,9 @@ enum SensorFailure<E> {
 ///
 /// On a tare request ([`Shared::tare`], which the control task sends only
 /// in Idle) it averages [`TARE_SAMPLES`] readings, refuses a mean outside
-/// [`crate::controller::PRESSURE_ZERO_RANGE_KPA`], stores an accepted one
+/// [`crate::controller::PRESSURE_ZERO_RANGE_KPA`] or one with which the
+/// sensor could not see a pressure limit of the parameters in force
+/// ([`sensor_sees_limits`]), stores an accepted one
 /// in flash first and then puts it in force, and answers the host.
 pub async fn run<I2C: I2c, F: NorFlash>(
     mut sensor: Ms5837<I2C>,
@@ -114,8 +120,9 @@ pub async fn run<I2C: I2c, F: NorFlash>(
             }
             needs_init = false;
         }
-        if let Some(seq) = shared.tare.try_take() {
-            let result = tare(&mut sensor, &mut delay, shared, store).await;
+        if let Some(request) = shared.tare.try_take() {
+            let seq = request.seq;
+            let result = tare(&mut sensor, &mut delay, shared, store, &request.params).await;
             if result == Err(TareError::Sensor) {
                 needs_init = true;
             }
@@ -148,6 +155,7 @@ async fn tare<I2C: I2c, F: NorFlash>(
     delay: &mut Delay,
     shared: &Shared,
     store: &StoreMutex<F>,
+    params: &Params,
 ) -> Result<(), TareError> {
     let zero = bounded(TARE_TIMEOUT_MS, sensor.capture_zero(delay, TARE_SAMPLES))
         .await
@@ -158,6 +166,10 @@ async fn tare<I2C: I2c, F: NorFlash>(
         return Err(TareError::OutOfRange {
             measured_kpa: zero_kpa,
         });
+    }
+    if let Err(field) = sensor_sees_limits(zero_kpa, params) {
+        log_warn!("sensor: tare {} kPa hides a limit, refused", zero_kpa);
+        return Err(TareError::SensorRange(field));
     }
     store
         .lock()

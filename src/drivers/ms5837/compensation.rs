@@ -34,6 +34,16 @@ impl Model {
             Model::Bar30 => 10,
         }
     }
+
+    /// Absolute pressure range over which the datasheet specifies the
+    /// part's accuracy (kPa): 02BA 300–1200 mbar, 30BA 0–30 bar. Outside
+    /// it a reading is not to be trusted, so no limit may rely on one.
+    pub const fn specified_kpa(self) -> (f32, f32) {
+        match self {
+            Model::Bar02 => (30.0, 120.0),
+            Model::Bar30 => (0.0, 3000.0),
+        }
+    }
 }
 
 /// A compensated reading in the sensor's exact integer units.

@@ -7,6 +7,14 @@ use core::f32::consts::PI;
 /// high 2 µs, STEP low 2 µs (see [`super::STEP_HIGH_US`]).
 pub const MIN_STEP_PERIOD_US: f32 = 5.0;
 
+/// Highest volume rate the pump steps at (mL/s), for every build: the
+/// controller's rate parameters are refused above it
+/// ([`crate::controller::RANGES`]) and the pump clamps any faster command
+/// to it, so the two cannot disagree. 4 mL/s is ≈ 9,550 microsteps/s with
+/// the default mechanics, 3 rev/s = 180 rpm, well inside a NEMA 17's range
+/// on a 12–24 V driver.
+pub const MAX_RATE_ML_PER_S: f32 = 4.0;
+
 /// Microsteps per full step the A4988/DRV8825 family can select.
 const MAX_MICROSTEPS: u16 = 256;
 
@@ -37,11 +45,6 @@ pub struct PumpConfig {
     /// Inner diameter of the syringe barrel (mm). Default 29.21, the paper's
     /// 50 mL syringe.
     pub syringe_bore_mm: f32,
-    /// Highest volume rate the pump will step at (mL/s); faster requests are
-    /// clamped. Default 4.0 (≈ 9550 microsteps/s, 3 rev/s = 180 rpm with the
-    /// defaults, well inside a NEMA 17's range on a 12–24 V driver), so the
-    /// controller's default shrink rate (4 mL/s) is not silently halved.
-    pub max_rate_ml_per_s: f32,
     /// Usable syringe volume (mL). Default 50.0.
     pub stroke_ml: f32,
     /// DIR level that moves the plunger in (injects). Default high; flip it
@@ -58,7 +61,6 @@ impl Default for PumpConfig {
             full_steps_per_rev: 200,
             microsteps: 16,
             syringe_bore_mm: 29.21,
-            max_rate_ml_per_s: 4.0,
             stroke_ml: 50.0,
             inject_dir_high: true,
             end_stop_polarity: SwitchPolarity::ActiveLow,
@@ -75,7 +77,6 @@ pub enum PumpConfigField {
     FullStepsPerRev,
     Microsteps,
     SyringeBoreMm,
-    MaxRateMlPerS,
     StrokeMl,
 }
 
@@ -94,9 +95,10 @@ fn positive_finite(x: f32) -> bool {
 impl PumpConfig {
     /// Checks every field; the first one out of range is named.
     ///
-    /// Ranges: lead, bore, max rate and stroke finite and > 0; full steps
-    /// per revolution > 0; microsteps a power of two in 1..=256; the max rate
-    /// no faster than one microstep per [`MIN_STEP_PERIOD_US`]; the stroke no
+    /// Ranges: lead, bore and stroke finite and > 0; full steps per
+    /// revolution > 0; microsteps a power of two in 1..=256, and few enough
+    /// that [`MAX_RATE_ML_PER_S`] needs no faster than one microstep per
+    /// [`MIN_STEP_PERIOD_US`] (reported as `Microsteps`); the stroke no
     /// more than `i32::MAX / 2` microsteps (the position can never overflow
     /// within travel).
     pub fn validate(&self) -> Result<(), PumpConfigError> {
@@ -115,10 +117,10 @@ impl PumpConfig {
         }
         // From here on ml_per_step is finite and > 0, so the quotients below
         // are > 0 (possibly +inf) and never NaN.
-        if !positive_finite(self.max_rate_ml_per_s)
-            || 1.0e6 * self.ml_per_step() / self.max_rate_ml_per_s < MIN_STEP_PERIOD_US
-        {
-            return err(PumpConfigField::MaxRateMlPerS);
+        if 1.0e6 * self.ml_per_step() / MAX_RATE_ML_PER_S < MIN_STEP_PERIOD_US {
+            // Too fine a step for MAX_RATE_ML_PER_S at the driver's
+            // fastest STEP: fewer microsteps fix it.
+            return err(PumpConfigField::Microsteps);
         }
         if !positive_finite(self.stroke_ml)
             || self.stroke_ml / self.ml_per_step() > (i32::MAX / 2) as f32
@@ -155,7 +157,7 @@ impl PumpConfig {
     }
 
     /// Time between microsteps (µs) for a volume rate (mL/s, either sign),
-    /// clamped to [`PumpConfig::max_rate_ml_per_s`] and rounded up so the
+    /// clamped to [`MAX_RATE_ML_PER_S`] and rounded up so the
     /// pump never runs faster than asked. `None` means no motion: a zero or
     /// non-finite rate, or one so slow the interval exceeds `u32::MAX` µs.
     pub fn step_interval_us(&self, rate_ml_per_s: f32) -> Option<u32> {
@@ -163,7 +165,7 @@ impl PumpConfig {
         if !positive_finite(rate) {
             return None;
         }
-        let rate = rate.min(self.max_rate_ml_per_s);
+        let rate = rate.min(MAX_RATE_ML_PER_S);
         let interval_us = libm::ceil(1.0e6 * f64::from(self.ml_per_step()) / f64::from(rate));
         if interval_us.is_finite() && interval_us >= 1.0 && interval_us <= f64::from(u32::MAX) {
             Some(interval_us as u32)

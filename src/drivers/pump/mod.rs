@@ -18,7 +18,8 @@ use embedded_hal_async::delay::DelayNs;
 
 use crate::controller::EndStops;
 pub use config::{
-    PumpConfig, PumpConfigError, PumpConfigField, SwitchPolarity, MIN_STEP_PERIOD_US,
+    PumpConfig, PumpConfigError, PumpConfigField, SwitchPolarity, MAX_RATE_ML_PER_S,
+    MIN_STEP_PERIOD_US,
 };
 
 /// STEP high time (µs).

@@ -117,6 +117,20 @@ pub fn refusal(reason: &NackReason, params: Option<&Params>) -> String {
                 }
             )
         }
+        NackReason::Command(CommandError::SensorRange(field)) => format!(
+            "field `{}` is refused at start: with the zero in force the sensor ({:?}, specified \
+             {:?} kPa absolute) could not see it; lower it, or tare where the atmosphere is lower",
+            field_name(*field),
+            urechis::controller::SENSOR_MODEL,
+            urechis::controller::SENSOR_SPECIFIED_KPA
+        ),
+        NackReason::Tare(TareError::SensorRange(field)) => format!(
+            "tare refused: with this zero the sensor ({:?}, specified {:?} kPa absolute) could \
+             not see field `{}`; lower it first",
+            urechis::controller::SENSOR_MODEL,
+            urechis::controller::SENSOR_SPECIFIED_KPA,
+            field_name(*field)
+        ),
         NackReason::Command(CommandError::NoPressureZero) => {
             "no pressure zero in range: run `host-sim board tare` with the head at rest in free \
              water first"

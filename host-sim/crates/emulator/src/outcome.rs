@@ -469,7 +469,8 @@ fn over_limit(trace: &Trace) -> OverLimit {
         }
     }
     let detect_ms = detect_ms + plant.sensor.max_sample_age_ms();
-    let excess_ml = f64::from(plant.pump.max_rate_ml_per_s) * f64::from(detect_ms) / 1000.0;
+    let excess_ml =
+        f64::from(urechis::drivers::pump::MAX_RATE_ML_PER_S) * f64::from(detect_ms) / 1000.0;
     let vent_ms =
         (1000.0 * excess_ml / (plant.relief_conductance_ml_per_s_per_kpa * limit)).ceil() as u32;
     OverLimit {

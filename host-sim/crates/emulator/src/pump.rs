@@ -226,7 +226,9 @@ mod tests {
         let mut pump = StepperPump::new(config, 25.0);
         pump.apply(run(-4.0), 0);
         let steps = pump.advance(0, 1_000_000);
-        let interval = config.step_interval_us(config.max_rate_ml_per_s).unwrap();
+        let interval = config
+            .step_interval_us(urechis::drivers::pump::MAX_RATE_ML_PER_S)
+            .unwrap();
         assert_eq!(config.step_interval_us(-4.0), Some(interval));
         assert_eq!(
             -i64::from(steps),

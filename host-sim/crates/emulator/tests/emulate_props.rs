@@ -52,13 +52,13 @@ fn params() -> impl Strategy<Value = Params> {
     (
         (
             0.2f32..3.0,
-            0.2f32..5.0,
+            0.2f32..4.0,
             19.5f32..30.0,
             0u32..800,
             0u32..600,
             0u16..4,
         ),
-        (3.0f32..40.0, 0.5f32..8.0, 0.0f32..0.5, 0.2f32..3.0),
+        (3.0f32..17.9, 0.5f32..8.0, 0.0f32..0.5, 0.2f32..3.0),
         (0.2f32..2.0, 0.0f32..0.5, 50u32..500, 20u32..200, 1u8..6),
     )
         .prop_map(
@@ -181,7 +181,8 @@ fn check_invariants(trace: &Trace) -> Result<(), TestCaseError> {
     let steps = &trace.steps;
     let stroke = f64::from(sc.plant.pump.stroke_ml);
     // One period of pumping at the pump's top rate, plus a microstep.
-    let slack = f64::from(sc.plant.pump.max_rate_ml_per_s) * f64::from(CONTROL_PERIOD_MS) / 1000.0
+    let slack = f64::from(urechis::drivers::pump::MAX_RATE_ML_PER_S) * f64::from(CONTROL_PERIOD_MS)
+        / 1000.0
         + f64::from(sc.plant.pump.ml_per_step());
     let mut latched = None;
     for (i, s) in steps.iter().enumerate() {

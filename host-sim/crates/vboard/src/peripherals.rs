@@ -16,11 +16,12 @@ use embedded_hal_async::i2c::{ErrorType as I2cErrorType, I2c};
 use emulator::sensor::SensorFault;
 use emulator::Plant;
 use urechis::drivers::ms5837::{
-    compensate_raw, crc4, Calibration, Model, ADDRESS, CMD_ADC_READ, CMD_CONVERT_D1,
-    CMD_CONVERT_D2, CMD_PROM_READ, CMD_RESET,
+    compensate_raw, crc4, Calibration, ADDRESS, CMD_ADC_READ, CMD_CONVERT_D1, CMD_CONVERT_D2,
+    CMD_PROM_READ, CMD_RESET,
 };
 use urechis::drivers::pump::Direction;
 use urechis::safety::{advance_level, safe_outputs, valve_level, SafePins};
+use urechis::tasks::sensor::MODEL;
 use urechis::tasks::ControlIo;
 
 /// Everything the board's pins and bus touch, shared with the plant's
@@ -291,7 +292,7 @@ impl Ms5837Sim {
         let (mut lo, mut hi) = (1u32, 0x00FF_FFFF);
         while lo < hi {
             let mid = lo + (hi - lo) / 2;
-            let p = i64::from(compensate_raw(Model::Bar02, &self.calibration, mid, d2).pressure_pa);
+            let p = i64::from(compensate_raw(MODEL, &self.calibration, mid, d2).pressure_pa);
             if p < pa {
                 lo = mid + 1;
             } else {
