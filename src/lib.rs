@@ -20,6 +20,8 @@
 //! - [`safety`]: the outputs' safe levels and the one routine that sets
 //!   them (boot, the Fault state, the panic and HardFault handlers);
 //! - [`reset_cause`]: the record a panic leaves for the next boot;
+//! - [`sensing`]: how the sensor task retries, recovers the bus and
+//!   reports a persistent failure (also host-sim's emulated sensor);
 //! - [`replay`]: the format of recorded emulator runs and the checker that
 //!   replays them through the controller (host-sim records, the QEMU build
 //!   and the host check).
@@ -40,6 +42,7 @@ pub mod replay;
 pub mod reset_cause;
 pub mod safety;
 pub mod selftest;
+pub mod sensing;
 pub mod store;
 pub mod table;
 

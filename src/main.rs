@@ -20,15 +20,14 @@ mod firmware {
     use embassy_executor::Spawner;
     use embassy_stm32::flash::Flash;
     use embassy_stm32::gpio::{Input, Level, Output, Pull, Speed};
-    use embassy_stm32::time::Hertz;
     use embassy_stm32::wdg::IndependentWatchdog;
-    use embassy_stm32::{bind_interrupts, dma, i2c, peripherals, usart, Config};
+    use embassy_stm32::{bind_interrupts, dma, peripherals, usart, Config};
     use embassy_sync::mutex::Mutex;
     use static_cell::StaticCell;
     use urechis::board::safe::{drive_outputs_safe, take_reset_record};
     use urechis::board::{
         control_task, pump_task, rx_task, sensor_task, tx_task, BoardFlash, BoardStore,
-        ControlOutputs, Pump, Sensor, RX_RING_BYTES, SHARED, WATCHDOG_TIMEOUT_US,
+        ControlOutputs, Pump, Sensor, SensorBus, RX_RING_BYTES, SHARED, WATCHDOG_TIMEOUT_US,
     };
     use urechis::controller::{Controller, Fault};
     use urechis::drivers::pump::{PumpConfig, PumpPins};
@@ -41,21 +40,14 @@ mod firmware {
     use urechis::tasks::sensor::{MODEL, OSR};
     use urechis::tasks::stored_table;
 
-    // DMA streams per RM0390 table 28: I2C1 RX stream 0 / TX stream 7,
-    // USART2 RX stream 5 / TX stream 6 (all DMA1, channel chosen by the HAL).
+    // DMA streams per RM0390 table 28: USART2 RX stream 5 / TX stream 6
+    // (DMA1, channel chosen by the HAL); the sensor bus binds its own
+    // (`urechis::board::I2cIrqs`).
     bind_interrupts!(struct Irqs {
-        I2C1_EV => i2c::EventInterruptHandler<peripherals::I2C1>;
-        I2C1_ER => i2c::ErrorInterruptHandler<peripherals::I2C1>;
         USART2 => usart::InterruptHandler<peripherals::USART2>;
-        DMA1_STREAM0 => dma::InterruptHandler<peripherals::DMA1_CH0>;
         DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
         DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
-        DMA1_STREAM7 => dma::InterruptHandler<peripherals::DMA1_CH7>;
     });
-
-    /// I²C bus speed: 100 kHz tolerates the capacitance of a cable to a
-    /// buried sensor.
-    const I2C_HZ: u32 = 100_000;
 
     #[embassy_executor::main]
     async fn main(spawner: Spawner) {
@@ -155,11 +147,7 @@ mod firmware {
             Err(rejected) => defmt::panic!("pump: config rejected: {}", rejected.error),
         };
 
-        let mut i2c_config = i2c::Config::default();
-        i2c_config.frequency = Hertz(I2C_HZ);
-        let i2c = i2c::I2c::new(
-            p.I2C1, p.PB8, p.PB9, p.DMA1_CH7, p.DMA1_CH0, Irqs, i2c_config,
-        );
+        let i2c = SensorBus::new(p.I2C1, p.PB8, p.PB9, p.DMA1_CH7, p.DMA1_CH0);
         let sensor = Sensor::new(i2c, MODEL, OSR);
 
         let mut uart_config = usart::Config::default();

@@ -42,21 +42,25 @@
 pub mod safe;
 
 use embassy_stm32::flash::{Blocking, Flash};
-use embassy_stm32::gpio::{Input, Output};
-use embassy_stm32::i2c::{I2c, Master};
+use embassy_stm32::gpio::{Input, Level, Output, OutputOpenDrain, Speed};
+use embassy_stm32::i2c::{self, I2c, Master};
 use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals::IWDG;
+use embassy_stm32::time::Hertz;
 use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
 use embassy_stm32::wdg::IndependentWatchdog;
+use embassy_stm32::{dma, peripherals, Peri};
 use embedded_hal::digital::OutputPin;
 use embedded_storage::nor_flash::{ErrorType, NorFlash, ReadNorFlash};
 
 use crate::controller::Controller;
+use crate::drivers::i2c_bus_clear::{clear_bus, BusClearError};
 use crate::drivers::ms5837::Ms5837;
 use crate::drivers::pump::SyringePump;
 use crate::protocol::Hello;
 use crate::safety::{advance_level, valve_level};
 use crate::tasks::control::BootInfo;
+use crate::tasks::sensor::BusRecovery;
 use crate::tasks::{self, ControlIo, Shared, StoreMutex};
 
 /// Independent-watchdog timeout (µs): ten control periods. The LSI clock
@@ -76,8 +80,97 @@ pub static SHARED: Shared = Shared::new();
 pub type Pump =
     SyringePump<Output<'static>, Output<'static>, Output<'static>, Input<'static>, Input<'static>>;
 
-/// The sensor's I²C bus as the board builds it.
-pub type SensorBus = I2c<'static, Async, Master>;
+/// I²C bus speed: 100 kHz tolerates the capacitance of a cable to a
+/// buried sensor.
+pub const I2C_HZ: u32 = 100_000;
+
+// DMA streams per RM0390 table 28: I2C1 RX stream 0 / TX stream 7 (DMA1,
+// channel chosen by the HAL).
+embassy_stm32::bind_interrupts!(
+    /// The interrupts of the sensor's I²C bus and its DMA streams.
+    pub struct I2cIrqs {
+        I2C1_EV => i2c::EventInterruptHandler<peripherals::I2C1>;
+        I2C1_ER => i2c::ErrorInterruptHandler<peripherals::I2C1>;
+        DMA1_STREAM0 => dma::InterruptHandler<peripherals::DMA1_CH0>;
+        DMA1_STREAM7 => dma::InterruptHandler<peripherals::DMA1_CH7>;
+    }
+);
+
+/// The sensor's I²C bus as the board builds it: I2C1 on PB8 (SCL) / PB9
+/// (SDA) with DMA, which [`BusRecovery`] takes down, clears and builds
+/// again.
+pub struct SensorBus {
+    /// `None` only inside a recovery.
+    i2c: Option<I2c<'static, Async, Master>>,
+}
+
+impl SensorBus {
+    /// The bus over the board's I2C1, PB8, PB9 and DMA1 streams 7 (TX)
+    /// and 0 (RX), which it owns from now on.
+    pub fn new(
+        i2c1: Peri<'static, peripherals::I2C1>,
+        scl: Peri<'static, peripherals::PB8>,
+        sda: Peri<'static, peripherals::PB9>,
+        tx_dma: Peri<'static, peripherals::DMA1_CH7>,
+        rx_dma: Peri<'static, peripherals::DMA1_CH0>,
+    ) -> Self {
+        let mut config = i2c::Config::default();
+        config.frequency = Hertz(I2C_HZ);
+        Self {
+            i2c: Some(I2c::new(i2c1, scl, sda, tx_dma, rx_dma, I2cIrqs, config)),
+        }
+    }
+}
+
+impl embedded_hal_async::i2c::ErrorType for SensorBus {
+    type Error = i2c::Error;
+}
+
+impl embedded_hal_async::i2c::I2c for SensorBus {
+    async fn transaction(
+        &mut self,
+        address: u8,
+        operations: &mut [embedded_hal_async::i2c::Operation<'_>],
+    ) -> Result<(), i2c::Error> {
+        match &mut self.i2c {
+            Some(i2c) => i2c.transaction(address, operations).await,
+            None => Err(i2c::Error::Bus),
+        }
+    }
+}
+
+impl BusRecovery for SensorBus {
+    fn recover_bus(&mut self) -> Result<(), BusClearError> {
+        // Dropping the driver turns the peripheral's clock off and
+        // disconnects its pins.
+        self.i2c = None;
+        // SAFETY: the driver that owned these singletons was just dropped;
+        // this bus is their only user, and builds the driver again below.
+        let (scl, sda) = unsafe { (peripherals::PB8::steal(), peripherals::PB9::steal()) };
+        let cleared = {
+            let mut scl = OutputOpenDrain::new(scl, Level::High, Speed::Low);
+            let mut sda = OutputOpenDrain::new(sda, Level::High, Speed::Low);
+            clear_bus(&mut scl, &mut sda, &mut embassy_time::Delay)
+        };
+        // Peripheral reset (RM0390 §6.3.13): a controller stuck in a
+        // transfer state starts clean.
+        let rcc = embassy_stm32::pac::RCC;
+        rcc.apb1rstr().modify(|w| w.set_i2c1rst(true));
+        rcc.apb1rstr().modify(|w| w.set_i2c1rst(false));
+        // SAFETY: as above.
+        let fresh = unsafe {
+            SensorBus::new(
+                peripherals::I2C1::steal(),
+                peripherals::PB8::steal(),
+                peripherals::PB9::steal(),
+                peripherals::DMA1_CH7::steal(),
+                peripherals::DMA1_CH0::steal(),
+            )
+        };
+        *self = fresh;
+        cleared.map(|_| ())
+    }
+}
 
 /// The sensor as the board builds it.
 pub type Sensor = Ms5837<SensorBus>;

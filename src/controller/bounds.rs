@@ -75,7 +75,10 @@ pub const CONTROL_OVERRUN_LIMIT_MS: u32 = 3 * CONTROL_PERIOD_MS;
 ///
 /// - immediate faults (over-pressure, out-of-range reading, end-stop, leak,
 ///   volume limit): one period;
-/// - sensor bus: `sensor_bus_error_steps` periods;
+/// - sensor bus: from the first failed read, the sensor task's
+///   [`FAILED_PERIODS_BEFORE_BUS_ERROR`](crate::sensing::FAILED_PERIODS_BEFORE_BUS_ERROR)
+///   failed periods (each retried, with a bus recovery between them) before
+///   it publishes `BusError`, then `sensor_bus_error_steps` steps;
 /// - stale: `sensor_stale_ms` + one period; frozen: `sensor_frozen_ms` + one
 ///   period (counted from the last change of the value);
 /// - pump stall: two blocks of `stall_volume_ml` at the expand rate, each
@@ -94,7 +97,11 @@ pub const fn detection_bound_ms(fault: Fault, params: &Params) -> u32 {
         | Fault::EndStop
         | Fault::Leak
         | Fault::VolumeLimit => t,
-        Fault::SensorBus => params.sensor_bus_error_steps as u32 * t,
+        Fault::SensorBus => {
+            (crate::sensing::FAILED_PERIODS_BEFORE_BUS_ERROR as u32
+                + params.sensor_bus_error_steps as u32)
+                * t
+        }
         Fault::SensorStale => params.sensor_stale_ms.saturating_add(t),
         Fault::SensorFrozen => params.sensor_frozen_ms.saturating_add(t),
         Fault::PumpStall => {
@@ -123,7 +130,7 @@ pub const fn detection_bound_ms(fault: Fault, params: &Params) -> u32 {
 
 /// Over-pressure: the step that sees the reading.
 pub const OVER_PRESSURE_DETECT_MS: u32 = detection_bound_ms(Fault::OverPressure, &Params::DEFAULT);
-/// Sensor bus: three failed steps by default.
+/// Sensor bus: two failed sensor periods, then three steps, by default.
 pub const SENSOR_BUS_DETECT_MS: u32 = detection_bound_ms(Fault::SensorBus, &Params::DEFAULT);
 /// Implausible reading (NaN, ±∞ below the range): the step that sees it.
 pub const SENSOR_OUT_OF_RANGE_DETECT_MS: u32 =
@@ -173,7 +180,8 @@ mod tests {
     #[test]
     fn default_bounds() {
         assert_eq!(OVER_PRESSURE_DETECT_MS, 10);
-        assert_eq!(SENSOR_BUS_DETECT_MS, 30);
+        // (2 failed sensor periods + 3 steps) × 10 ms.
+        assert_eq!(SENSOR_BUS_DETECT_MS, 50);
         assert_eq!(SENSOR_FROZEN_DETECT_MS, 310);
         assert_eq!(SENSOR_STALE_DETECT_MS, 60);
         // 1 mL at 2 mL/s = 500 ms = 50 periods; 2 × (50 + 1) × 10 ms.

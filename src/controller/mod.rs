@@ -74,7 +74,7 @@
 //! | fault | detection rule | bound | where |
 //! |---|---|---|---|
 //! | `OverPressure` | reading > `max_pressure_kpa` (+∞ included, even above the sensor range) | 1 period [10 ms] | all states |
-//! | `SensorBus` | `sensor_bus_error_steps` consecutive `BusError`/`Missing` | that many periods [30 ms] | active |
+//! | `SensorBus` | `sensor_bus_error_steps` consecutive `BusError`/`Missing` (the sensor task publishes `BusError` after two failed periods, [`crate::sensing`]) | 2 + that many periods from the first failed read [50 ms] | active |
 //! | `SensorOutOfRange` | reading NaN, −∞ or below `sensor_min_kpa` | 1 period [10 ms] | active |
 //! | `SensorFrozen` | bit-identical reading for ≥ `sensor_frozen_ms` while the pump runs | `sensor_frozen_ms` + 1 period [310 ms] | active |
 //! | `SensorStale` | `now − taken_ms` > `sensor_stale_ms` (wrapping; a future stamp is stale) | `sensor_stale_ms` + 1 period [60 ms] | active |

@@ -4,7 +4,7 @@
 
 use core::num::NonZeroU8;
 
-use embassy_time::{with_timeout, Delay, Duration, Ticker, Timer};
+use embassy_time::{with_timeout, Delay, Duration, Instant, Ticker, Timer};
 use embedded_hal_async::i2c::I2c;
 use embedded_storage::nor_flash::NorFlash;
 
@@ -14,8 +14,10 @@ use crate::controller::{
     pressure_zero_in_range, sensor_sees_limits, Params, PressureSample, CONTROL_PERIOD_MS,
     SENSOR_MODEL,
 };
+use crate::drivers::i2c_bus_clear::BusClearError;
 use crate::drivers::ms5837::{Error, Model, Ms5837, Osr};
 use crate::protocol::{DeviceMessage, NackReason, TareError};
+use crate::sensing::{SensorHealth, RETRIES_PER_PERIOD};
 
 /// The part fitted: [`SENSOR_MODEL`], one per build (the MS5837-02BA:
 /// 300–1200 mbar absolute specified, 1 Pa resolution, ample for a head
@@ -71,17 +73,37 @@ enum SensorFailure<E> {
     Timeout,
 }
 
+/// An I²C bus the sensor task can free after a failed period: a bus clear
+/// ([`crate::drivers::i2c_bus_clear::clear_bus`]: SCL pulses until a device
+/// releases SDA, then a STOP) and a reset of the I²C peripheral. The board
+/// implements it on I2C1 (PB8/PB9), the virtual board on its simulated
+/// bus.
+pub trait BusRecovery {
+    /// Frees and restarts the bus. `Err` when SDA stays low (a device
+    /// stuck for good): the next reads fail and the failure is reported.
+    fn recover_bus(&mut self) -> Result<(), BusClearError>;
+}
+
+/// Longest one read (two conversions and the bus traffic) takes (µs): a
+/// retry is made only when this much of the period is left.
+pub const READ_MAX_US: u32 = 2 * OSR.max_conversion_us() + 1_600;
+
 /// Initialises the part (reset, PROM + CRC-4), then publishes one gauge
 /// reading every [`CONTROL_PERIOD_MS`]: absolute minus the zero in force
 /// ([`Shared::zero_kpa`], which the board read from the store at boot; the
 /// zero is never re-captured by itself).
 ///
-/// Until the part answers it publishes [`PressureSample::BusError`] after
-/// each failed attempt. After a read that fails or does not finish within
-/// [`READ_TIMEOUT_MS`] it publishes `BusError` and re-initialises the part
-/// (a brown-out loses the PROM image and leaves ADC READ returning 0). A
-/// part that holds SDA low is not recovered here: the controller faults on
-/// the bus errors.
+/// Until the part answers at boot it publishes [`PressureSample::BusError`]
+/// after each failed attempt. After that a failed read (an error, or no
+/// result within [`READ_TIMEOUT_MS`]) is retried at once while the period
+/// has [`READ_MAX_US`] left ([`RETRIES_PER_PERIOD`]): one glitch costs no
+/// reading. A period with no reading follows [`SensorHealth`]: the last
+/// good reading stays published (ageing), the bus is recovered
+/// ([`BusRecovery`]) and the part re-initialised (a brown-out loses the
+/// PROM image and leaves ADC READ returning 0), and
+/// [`PressureSample::BusError`] is published once
+/// [`FAILED_PERIODS_BEFORE_BUS_ERROR`](crate::sensing::FAILED_PERIODS_BEFORE_BUS_ERROR)
+/// periods in a row failed.
 ///
 /// On a tare request ([`Shared::tare`], which the control task sends only
 /// in Idle) it averages [`TARE_SAMPLES`] readings, refuses a mean outside
@@ -89,7 +111,7 @@ enum SensorFailure<E> {
 /// sensor could not see a pressure limit of the parameters in force
 /// ([`sensor_sees_limits`]), stores an accepted one
 /// in flash first and then puts it in force, and answers the host.
-pub async fn run<I2C: I2c, F: NorFlash>(
+pub async fn run<I2C: I2c + BusRecovery, F: NorFlash>(
     mut sensor: Ms5837<I2C>,
     shared: &Shared,
     store: &StoreMutex<F>,
@@ -101,21 +123,27 @@ pub async fn run<I2C: I2c, F: NorFlash>(
     {
         log_warn!("sensor: init failed");
         shared.sample.sender().send(PressureSample::BusError);
+        if sensor.bus_mut().recover_bus().is_err() {
+            log_warn!("sensor: SDA held low");
+        }
         Timer::after_millis(RETRY_MS).await;
     }
     log_info!("sensor: ready");
 
-    let mut ticker = Ticker::every(Duration::from_millis(u64::from(CONTROL_PERIOD_MS)));
+    let period = Duration::from_millis(u64::from(CONTROL_PERIOD_MS));
+    let mut ticker = Ticker::every(period);
+    let mut health = SensorHealth::new();
     let mut needs_init = false;
     loop {
         ticker.next().await;
+        let period_end = Instant::now() + period;
         if needs_init {
             if bounded(INIT_TIMEOUT_MS, sensor.init(&mut delay))
                 .await
                 .is_err()
             {
                 log_warn!("sensor: re-init failed");
-                shared.sample.sender().send(PressureSample::BusError);
+                failed_period(&mut sensor, shared, &mut health);
                 continue;
             }
             needs_init = false;
@@ -134,18 +162,56 @@ pub async fn run<I2C: I2c, F: NorFlash>(
             ticker.reset();
         }
         let zero = shared.zero_kpa().unwrap_or(STANDARD_ATMOSPHERE_KPA);
-        let sample = match bounded(READ_TIMEOUT_MS, sensor.read(&mut delay)).await {
-            Ok(m) => PressureSample::Reading {
-                pressure_kpa: m.pressure_kpa - zero,
-                taken_ms: now_ms(),
-            },
-            Err(_) => {
-                log_warn!("sensor: read failed");
-                needs_init = true;
-                PressureSample::BusError
+        let mut reading = None;
+        for attempt in 0..=RETRIES_PER_PERIOD {
+            let read_max = Duration::from_micros(u64::from(READ_MAX_US));
+            if attempt > 0 && Instant::now() + read_max > period_end {
+                break;
             }
-        };
-        shared.sample.sender().send(sample);
+            match bounded(READ_TIMEOUT_MS, sensor.read(&mut delay)).await {
+                Ok(m) => {
+                    reading = Some(m);
+                    break;
+                }
+                Err(_) => log_warn!("sensor: read failed (attempt {})", attempt + 1),
+            }
+        }
+        match reading {
+            Some(m) => {
+                health.read_ok();
+                shared.sample.sender().send(PressureSample::Reading {
+                    pressure_kpa: m.pressure_kpa - zero,
+                    taken_ms: now_ms(),
+                });
+            }
+            None => {
+                failed_period(&mut sensor, shared, &mut health);
+                // Re-initialise now, not a period later: the next reading
+                // comes as soon as the part is back.
+                needs_init = bounded(INIT_TIMEOUT_MS, sensor.init(&mut delay))
+                    .await
+                    .is_err();
+            }
+        }
+    }
+}
+
+/// A period without a reading: [`SensorHealth`] decides whether to publish
+/// `BusError`; the bus is recovered.
+fn failed_period<I2C: I2c + BusRecovery>(
+    sensor: &mut Ms5837<I2C>,
+    shared: &Shared,
+    health: &mut SensorHealth,
+) {
+    let after = health.period_failed();
+    if after.publish_bus_error {
+        shared.sample.sender().send(PressureSample::BusError);
+    }
+    if after.recover {
+        match sensor.bus_mut().recover_bus() {
+            Ok(()) => log_info!("sensor: bus recovered"),
+            Err(e) => log_warn!("sensor: bus recovery failed: {}", e),
+        }
     }
 }
 

@@ -145,6 +145,12 @@ impl<I2C: I2c> Ms5837<I2C> {
         self.i2c
     }
 
+    /// The bus, for a recovery between transfers (bus clear, peripheral
+    /// reset); call [`Ms5837::init`] afterwards.
+    pub fn bus_mut(&mut self) -> &mut I2C {
+        &mut self.i2c
+    }
+
     /// The sensor variant.
     pub fn model(&self) -> Model {
         self.model

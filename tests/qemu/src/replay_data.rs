@@ -34,6 +34,18 @@ pub const RECORDINGS: &[Recording] = &[
         bytes: include_bytes!("../replay/sensor_hang.bin"),
     },
     Recording {
+        name: "sensor_glitch",
+        bytes: include_bytes!("../replay/sensor_glitch.bin"),
+    },
+    Recording {
+        name: "sensor_burst",
+        bytes: include_bytes!("../replay/sensor_burst.bin"),
+    },
+    Recording {
+        name: "stuck_sda",
+        bytes: include_bytes!("../replay/stuck_sda.bin"),
+    },
+    Recording {
         name: "leak",
         bytes: include_bytes!("../replay/leak.bin"),
     },

@@ -206,3 +206,51 @@ fn a_recorded_run_and_a_fault_scenario() {
     let info = link.connect().unwrap();
     assert_eq!(info.fault, Some(Fault::SensorBus));
 }
+
+/// One cycle of `scenario` on a virtual board, recorded by the host tool:
+/// its outcome and the bus recoveries the sensor task made.
+fn scenario_run(name: &str) -> (boardlink::RunOutcome, u64, VirtualBoard) {
+    let dir = tempfile::tempdir().unwrap();
+    let vb = VirtualBoard::start(&Options {
+        scenario: Some(emulator::named(name).unwrap()),
+        ..Options::default()
+    })
+    .unwrap();
+    let mut link = Link::open(vb.port()).unwrap();
+    link.connect().unwrap();
+    expect_ack(&mut link, HostCommand::Tare, 3000).unwrap();
+    let outcome = boardlink::run(
+        &mut link,
+        &boardlink::RunOptions {
+            cycles: 1,
+            depth_mm: 40.0,
+            rig: rig_file(dir.path()),
+            out: dir.path().join(name),
+            run_id: "r".into(),
+        },
+        &std::sync::atomic::AtomicBool::new(false),
+        &mut |_| {},
+    )
+    .unwrap();
+    let recoveries = vb.bus_recoveries();
+    (outcome, recoveries, vb)
+}
+
+#[test]
+fn sensor_bus_faults_on_the_firmwares_own_sensor_task() {
+    // One failed attempt: retried within the period, no recovery needed.
+    let (o, recoveries, _vb) = scenario_run("sensor_glitch");
+    assert_eq!((o.fault, o.cycles), (None, 1));
+    assert_eq!(recoveries, 0);
+    // A held SDA: one failed period, the firmware's bus clear on the
+    // simulated lines frees it, the part is re-initialised, the cycle
+    // completes.
+    let (o, recoveries, _vb) = scenario_run("stuck_sda");
+    assert_eq!((o.fault, o.cycles), (None, 1));
+    assert!(recoveries >= 1, "{recoveries}");
+    // A burst that outlasts the retries and recoveries: SensorBus.
+    let (o, recoveries, vb) = scenario_run("sensor_burst");
+    assert_eq!(o.fault, Some(Fault::SensorBus));
+    assert!(recoveries >= 2, "{recoveries}");
+    assert!(vb.outputs_safe());
+}

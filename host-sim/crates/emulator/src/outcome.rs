@@ -39,7 +39,8 @@ pub struct Detection {
 /// may read below it). The promise, with a sensor that keeps
 /// delivering fresh readings: the reading that shows it arrives within the
 /// sample age and latches OverPressure within its bound; random bus errors
-/// can hide up to `sensor_bus_error_steps − 1` readings, and an injected
+/// can hide readings until the last one turns stale (`sensor_stale_ms` +
+/// one period, when the controller faults anyway), and an injected
 /// dropout or hang is caught within its own bound instead. Until then the
 /// pump pushes at most `max_rate` × that time of water past the limit, and
 /// the open relief valve vents at least `g · limit` while above it.
@@ -449,16 +450,20 @@ fn over_limit(trace: &Trace) -> OverLimit {
         run = if p > threshold { run + 1 } else { 0 };
         longest = longest.max(run);
     }
-    let period = urechis::controller::CONTROL_PERIOD_MS;
     let mut detect_ms = detection_bound_ms(Fault::OverPressure, params);
     if plant.sensor.bus_error_probability > 0.0 {
-        detect_ms += u32::from(params.sensor_bus_error_steps.saturating_sub(1)) * period;
+        // Failed periods (and the re-init after each) keep the last
+        // reading published: the controller sees a new one, or the old
+        // one turns stale, within the stale bound.
+        detect_ms = detect_ms.max(detection_bound_ms(Fault::SensorStale, params));
     }
     let mut blind = false;
     for i in &trace.injected {
         if let PlantFault::Sensor(f) = i.fault {
             let caught_by = match f {
-                SensorFault::Dropout => Fault::SensorBus,
+                SensorFault::Dropout | SensorFault::Glitch(_) | SensorFault::StuckSda => {
+                    Fault::SensorBus
+                }
                 SensorFault::Hang => Fault::SensorStale,
                 SensorFault::Frozen => {
                     blind = true;

@@ -367,6 +367,12 @@ impl Plant {
         self.sensor.fault()
     }
 
+    /// The emulated sensor, for a driver that talks to it byte by byte (the
+    /// virtual board's bus).
+    pub fn sensor_mut(&mut self) -> &mut Sensor {
+        &mut self.sensor
+    }
+
     /// The pump command in force.
     pub fn pump_command(&self) -> PumpCommand {
         self.pump.command()

@@ -168,7 +168,7 @@ pub struct Scenario {
 }
 
 /// Names of the built-in scenarios, in `--list` order.
-pub const NAMES: [&str; 11] = [
+pub const NAMES: [&str; 14] = [
     "normal_40mm",
     "normal_100mm",
     "blocked_line",
@@ -176,6 +176,9 @@ pub const NAMES: [&str; 11] = [
     "sensor_dropout",
     "frozen_sensor",
     "sensor_hang",
+    "sensor_glitch",
+    "sensor_burst",
+    "stuck_sda",
     "leak",
     "stalled_pump",
     "trapped_air",
@@ -286,6 +289,39 @@ pub fn named(name: &str) -> Result<Scenario> {
             SensorFault::Hang,
             Fault::SensorStale,
         ),
+        "sensor_glitch" => Scenario {
+            summary: "one read attempt fails on the bus in every expansion: the retry within \
+                      the period reads, the cycles complete"
+                .into(),
+            depth_mm: 40.0,
+            params: params(40.0, 5),
+            injections: (1..=5)
+                .map(|nth| Injection {
+                    at: expand(nth, 500),
+                    fault: PlantFault::Sensor(SensorFault::Glitch(1)),
+                })
+                .collect(),
+            max_ms: 60_000,
+            tail_ms: 500,
+            expect: Expectation::Completes { cycles: 5 },
+            ..sensor_fault(name, "", SensorFault::Glitch(1), Fault::SensorBus)
+        },
+        "sensor_burst" => sensor_fault(
+            name,
+            "a burst of 40 failed bus attempts mid-expansion: retries and recoveries do not \
+             help, the bus fault latches",
+            SensorFault::Glitch(40),
+            Fault::SensorBus,
+        ),
+        "stuck_sda" => Scenario {
+            summary: "a device holds SDA low mid-expansion: the bus clear frees it, the part is \
+                      re-initialised and the cycles complete"
+                .into(),
+            max_ms: 60_000,
+            tail_ms: 500,
+            expect: Expectation::Completes { cycles: 5 },
+            ..sensor_fault(name, "", SensorFault::StuckSda, Fault::SensorBus)
+        },
         "leak" => Scenario {
             name: name.into(),
             summary: "a pin-hole leak (0.2 mL/s per kPa): the pressure decays during the hold"

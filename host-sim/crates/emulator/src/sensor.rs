@@ -10,10 +10,19 @@
 //! readings at rest). The controller sees the newest published sample, with
 //! `taken_ms` = when the read completed.
 //!
-//! Failures, as the board would deliver them:
-//! - random bus errors, each read with `bus_error_probability`
-//!   ([`PressureSample::BusError`]);
-//! - [`SensorFault::Dropout`]: every read fails from then on;
+//! A failed read goes through the firmware's own rules
+//! ([`urechis::sensing`]): retried within the period, then a failed period
+//! (the last good reading stays published), a bus recovery and a re-init
+//! of the part, and [`PressureSample::BusError`] once the failure persists.
+//! A re-init that succeeds costs the next [`REINIT_SKIPPED_READS`] reads.
+//!
+//! Failures, as the board would meet them:
+//! - random bus errors, each read attempt with `bus_error_probability`;
+//! - [`SensorFault::Dropout`]: every attempt fails from then on;
+//! - [`SensorFault::Glitch`]: the next attempts fail, then the part
+//!   answers again;
+//! - [`SensorFault::StuckSda`]: a device holds SDA low: every attempt fails
+//!   until a bus recovery frees it;
 //! - [`SensorFault::Frozen`]: the part returns the last good conversion
 //!   again and again (bit-identical readings, fresh timestamps);
 //! - [`SensorFault::Hang`]: the sensor task stops publishing; the last
@@ -27,7 +36,8 @@ use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64Mcg;
 use urechis::controller::PressureSample;
-use urechis::drivers::ms5837::{GaugeZero, Measurement, Model, RawMeasurement};
+use urechis::drivers::ms5837::{GaugeZero, Measurement, Model, RawMeasurement, RESET_DELAY_US};
+use urechis::sensing::{SensorHealth, RETRIES_PER_PERIOD};
 
 pub use constants::ATMOSPHERE_KPA;
 
@@ -81,11 +91,25 @@ impl SensorConfig {
     }
 }
 
+/// Reads lost after a failed period whose re-init succeeded: the part's
+/// reset wait (10 ms) and its PROM (≈ 2 ms at 100 kHz) end about 17 ms
+/// after the failed read, and the board reads again at once; the model
+/// skips the next two read slots (the next reading 30 ms after the failed
+/// one, later than the board's ≈ 23 ms), so the scenarios err towards a
+/// stale reading.
+pub const REINIT_SKIPPED_READS: u8 = (RESET_DELAY_US / 1_000 / 10 + 1) as u8;
+
 /// A sensor failure injected by a scenario.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SensorFault {
     /// Every read fails on the bus.
     Dropout,
+    /// The next this many bus attempts (reads or re-inits) fail, then the
+    /// part answers again: electrical noise on the cable.
+    Glitch(u8),
+    /// A device holds SDA low (it lost clocks mid-byte): every attempt
+    /// fails until a bus recovery clocks it free.
+    StuckSda,
     /// Every read returns the last good conversion, bit for bit.
     Frozen,
     /// The sensor task stops publishing.
@@ -105,6 +129,9 @@ pub struct Sensor {
     published: PressureSample,
     last_good_kpa: Option<f32>,
     fault: Option<SensorFault>,
+    health: SensorHealth,
+    skip_reads: u8,
+    recoveries: u32,
 }
 
 impl Sensor {
@@ -132,6 +159,9 @@ impl Sensor {
             published: PressureSample::Missing,
             last_good_kpa: None,
             fault: None,
+            health: SensorHealth::new(),
+            skip_reads: 0,
+            recoveries: 0,
         })
     }
 
@@ -155,6 +185,45 @@ impl Sensor {
         self.fault
     }
 
+    /// Bus recoveries the sensor task made so far.
+    pub fn recoveries(&self) -> u32 {
+        self.recoveries
+    }
+
+    /// One bus attempt on a real driver (the virtual board's): whether the
+    /// injected fault fails it (Dropout, StuckSda, a Glitch with attempts
+    /// left, using one); no random errors.
+    pub fn injected_attempt_fails(&mut self) -> bool {
+        match self.fault {
+            Some(SensorFault::Glitch(_) | SensorFault::Dropout | SensorFault::StuckSda) => {
+                self.attempt_fails()
+            }
+            _ => false,
+        }
+    }
+
+    /// A bus clear freed the bus: a held SDA is released.
+    pub fn bus_cleared(&mut self) {
+        if self.fault == Some(SensorFault::StuckSda) {
+            self.fault = None;
+        }
+    }
+
+    /// One bus attempt: fails under Dropout, StuckSda, a Glitch with
+    /// attempts left (using one), or at random.
+    fn attempt_fails(&mut self) -> bool {
+        match self.fault {
+            Some(SensorFault::Dropout | SensorFault::StuckSda) => true,
+            Some(SensorFault::Glitch(n)) => {
+                self.fault = n
+                    .checked_sub(1)
+                    .and_then(|left| (left > 0).then_some(SensorFault::Glitch(left)));
+                true
+            }
+            _ => self.bus_rng.random::<f64>() < self.config.bus_error_probability,
+        }
+    }
+
     /// The newest published sample: what the controller sees.
     pub fn sample(&self) -> PressureSample {
         self.published
@@ -176,12 +245,34 @@ impl Sensor {
         // The oldest kept value is `conversion_lag_ms` old (or the oldest
         // there is, right after start).
         let sampled_kpa = self.history.front().copied().unwrap_or(true_kpa);
-        let sample = match self.fault {
-            Some(SensorFault::Hang) => return,
-            Some(SensorFault::Dropout) => PressureSample::BusError,
-            _ if self.bus_rng.random::<f64>() < self.config.bus_error_probability => {
-                PressureSample::BusError
+        if self.fault == Some(SensorFault::Hang) {
+            return;
+        }
+        if self.skip_reads > 0 {
+            self.skip_reads -= 1;
+            return;
+        }
+        let answered = (0..=RETRIES_PER_PERIOD).any(|_| !self.attempt_fails());
+        if !answered {
+            let after = self.health.period_failed();
+            if after.publish_bus_error {
+                self.published = PressureSample::BusError;
             }
+            if after.recover {
+                self.recoveries += 1;
+                // The bus clear frees a held SDA; the re-init is one more
+                // attempt, and costs reads when it succeeds.
+                if self.fault == Some(SensorFault::StuckSda) {
+                    self.fault = None;
+                }
+                if !self.attempt_fails() {
+                    self.skip_reads = REINIT_SKIPPED_READS;
+                }
+            }
+            return;
+        }
+        self.health.read_ok();
+        let sample = match self.fault {
             Some(SensorFault::Frozen) => match self.last_good_kpa {
                 Some(pressure_kpa) => PressureSample::Reading {
                     pressure_kpa,
@@ -189,7 +280,9 @@ impl Sensor {
                 },
                 None => PressureSample::BusError,
             },
-            None => {
+            // Healthy, or a glitch that just ended (Dropout and StuckSda
+            // never answer).
+            _ => {
                 let pressure_kpa = self.zero.gauge_kpa(convert(
                     &self.config,
                     &self.noise,
@@ -317,10 +410,15 @@ mod tests {
             other => panic!("{other:?}"),
         }
         s.set_fault(Some(SensorFault::Dropout));
+        // One failed period keeps the last reading (and recovers the bus);
+        // the second publishes the error.
         feed(&mut s, 21, 30, |_| 5.0);
+        assert!(matches!(s.sample(), PressureSample::Reading { .. }));
+        assert_eq!(s.recoveries(), 1);
+        feed(&mut s, 31, 40, |_| 5.0);
         assert_eq!(s.sample(), PressureSample::BusError);
         s.set_fault(Some(SensorFault::Hang));
-        feed(&mut s, 31, 60, |_| 5.0);
+        feed(&mut s, 41, 70, |_| 5.0);
         assert_eq!(
             s.sample(),
             PressureSample::BusError,
@@ -329,19 +427,29 @@ mod tests {
     }
 
     #[test]
-    fn bus_errors_come_at_their_rate() {
+    fn failed_periods_come_at_the_square_of_the_error_rate() {
+        // Each attempt fails with p = 0.1; a period fails only when its
+        // retry fails too (p² = 0.01), and a single failed period
+        // publishes no error.
         let config = SensorConfig {
             bus_error_probability: 0.1,
             ..quiet()
         };
         let mut s = Sensor::new(config, 11, 0.0).unwrap();
-        let mut errors = 0;
+        let (mut errors, mut before) = (0, s.sample());
         let n = 5000u32;
         for k in 0..n {
             feed(&mut s, 10 * k + 1, 10 * k + 10, |_| 0.0);
-            errors += u32::from(s.sample() == PressureSample::BusError);
+            let now = s.sample();
+            errors += u32::from(now == PressureSample::BusError && before != now);
+            before = now;
         }
-        // Binomial(5000, 0.1): mean 500, sd 21.2; within 4 sd.
-        assert!((f64::from(errors) - 500.0).abs() < 4.0 * 21.2, "{errors}");
+        // About 5000 read slots (two skipped after each recovery):
+        // Binomial(≈ 4900, 0.01), mean ≈ 49, sd ≈ 7; within 4 sd.
+        let r = f64::from(s.recoveries());
+        assert!((r - 49.0).abs() < 4.0 * 7.0, "{r}");
+        // Two failed periods with no reading between (≈ 1 % of the
+        // recoveries: ≈ 0.5 expected) are rare.
+        assert!(errors < 5, "{errors}");
     }
 }

@@ -143,6 +143,7 @@ impl VirtualBoard {
             advance_on: false,
             pulses: 0,
             watchdog_feeds: 0,
+            bus_recoveries: 0,
         }));
         // The slave side is held open without a lock: a host opens it
         // (exclusively) by its name.
@@ -233,6 +234,11 @@ impl VirtualBoard {
     /// Microsteps the plant's pump took from STEP pulses so far.
     pub fn pulses(&self) -> u64 {
         lock(&self.rig).pulses
+    }
+
+    /// Bus recoveries the sensor task made so far (all boots).
+    pub fn bus_recoveries(&self) -> u64 {
+        lock(&self.rig).bus_recoveries
     }
 
     /// The plant's true state now.

@@ -3,6 +3,7 @@
 //! end-stops wired to the emulated plant's syringe pump, the relief valve
 //! and advance drive, and the UART as a pseudo-terminal.
 
+use std::cell::Cell;
 use std::convert::Infallible;
 use std::io::Write;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -15,13 +16,14 @@ use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource, Operation};
 use embedded_hal_async::i2c::{ErrorType as I2cErrorType, I2c};
 use emulator::sensor::SensorFault;
 use emulator::Plant;
+use urechis::drivers::i2c_bus_clear::{clear_bus, BusClearError};
 use urechis::drivers::ms5837::{
     compensate_raw, crc4, Calibration, ADDRESS, CMD_ADC_READ, CMD_CONVERT_D1, CMD_CONVERT_D2,
     CMD_PROM_READ, CMD_RESET,
 };
 use urechis::drivers::pump::Direction;
 use urechis::safety::{advance_level, safe_outputs, valve_level, SafePins};
-use urechis::tasks::sensor::MODEL;
+use urechis::tasks::sensor::{BusRecovery, MODEL};
 use urechis::tasks::ControlIo;
 
 /// Everything the board's pins and bus touch, shared with the plant's
@@ -50,6 +52,8 @@ pub struct Rig {
     pub pulses: u64,
     /// Times the watchdog was fed since boot.
     pub watchdog_feeds: u64,
+    /// Bus recoveries (bus clear and peripheral reset) the sensor task made.
+    pub bus_recoveries: u64,
 }
 
 /// The rig behind a lock (the board thread and the plant thread share it).
@@ -327,11 +331,16 @@ impl I2c for Ms5837Sim {
         address: u8,
         operations: &mut [Operation<'_>],
     ) -> Result<(), BusFault> {
-        let fault = lock(&self.rig).plant.sensor_fault();
-        match fault {
-            Some(SensorFault::Hang) => core::future::pending::<()>().await,
-            Some(SensorFault::Dropout) => return Err(BusFault),
-            _ => {}
+        let fault = {
+            let mut r = lock(&self.rig);
+            let fault = r.plant.sensor_fault();
+            if r.plant.sensor_mut().injected_attempt_fails() {
+                return Err(BusFault);
+            }
+            fault
+        };
+        if fault == Some(SensorFault::Hang) {
+            core::future::pending::<()>().await;
         }
         if address != ADDRESS {
             return Err(BusFault);
@@ -370,6 +379,96 @@ impl I2c for Ms5837Sim {
             }
         }
         Ok(())
+    }
+}
+
+/// The two lines of the simulated bus during a bus clear: a device that
+/// holds SDA low lets go after a few SCL pulses.
+struct Lines {
+    /// SCL pulses the device still needs before it releases SDA.
+    held_for: Cell<u8>,
+    scl_high: Cell<bool>,
+    sda_driven_low: Cell<bool>,
+}
+
+/// SCL, driven by the bus clear.
+struct Scl<'a>(&'a Lines);
+/// SDA, driven and read by the bus clear.
+struct Sda<'a>(&'a Lines);
+
+impl PinErrorType for Scl<'_> {
+    type Error = Infallible;
+}
+
+impl OutputPin for Scl<'_> {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        self.0.scl_high.set(false);
+        Ok(())
+    }
+
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        if !self.0.scl_high.get() {
+            // A rising edge clocks the stuck device one bit on.
+            self.0.held_for.set(self.0.held_for.get().saturating_sub(1));
+        }
+        self.0.scl_high.set(true);
+        Ok(())
+    }
+}
+
+impl PinErrorType for Sda<'_> {
+    type Error = Infallible;
+}
+
+impl OutputPin for Sda<'_> {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        self.0.sda_driven_low.set(true);
+        Ok(())
+    }
+
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        self.0.sda_driven_low.set(false);
+        Ok(())
+    }
+}
+
+impl InputPin for Sda<'_> {
+    fn is_high(&mut self) -> Result<bool, Infallible> {
+        Ok(!self.is_low()?)
+    }
+
+    fn is_low(&mut self) -> Result<bool, Infallible> {
+        Ok(self.0.sda_driven_low.get() || self.0.held_for.get() > 0)
+    }
+}
+
+/// Timing is not simulated on the bus lines.
+struct NoDelay;
+
+impl embedded_hal::delay::DelayNs for NoDelay {
+    fn delay_ns(&mut self, _ns: u32) {}
+}
+
+/// SCL pulses a device holding SDA needs before it lets go (it was
+/// caught after three bits of a byte).
+pub const STUCK_SDA_CLOCKS: u8 = 6;
+
+impl BusRecovery for Ms5837Sim {
+    fn recover_bus(&mut self) -> Result<(), BusClearError> {
+        let stuck = lock(&self.rig).plant.sensor_fault() == Some(SensorFault::StuckSda);
+        let lines = Lines {
+            held_for: Cell::new(if stuck { STUCK_SDA_CLOCKS } else { 0 }),
+            scl_high: Cell::new(true),
+            sda_driven_low: Cell::new(false),
+        };
+        // The firmware's own bus clear, on the simulated lines.
+        let result = clear_bus(&mut Scl(&lines), &mut Sda(&lines), &mut NoDelay);
+        let mut r = lock(&self.rig);
+        if result.is_ok() {
+            r.plant.sensor_mut().bus_cleared();
+        }
+        r.bus_recoveries += 1;
+        result.map(|_| ())
     }
 }
 
