@@ -46,7 +46,7 @@ pub struct Params {
     pub cycles: u16,
     /// Over-pressure limit (kPa gauge), enforced independently of the
     /// table, in every state. Range 1 to what the fitted sensor can see
-    /// ([`SENSOR_MAX_GAUGE_KPA`](super::SENSOR_MAX_GAUGE_KPA), 50 for the
+    /// ([`SENSOR_MAX_GAUGE_KPA`], 50 for the
     /// 02BA), and below `sensor_max_kpa`; `Start` and a tare also refuse a
     /// zero with which `zero + max_pressure_kpa` passes the sensor's
     /// specified maximum ([`sensor_sees_limits`](super::sensor_sees_limits)).
@@ -104,13 +104,13 @@ pub struct Params {
     pub min_volume_ml: f32,
     /// Lowest plausible sensor reading (kPa gauge); below it (or NaN, or −∞)
     /// is a sensor fault. Range from what the fitted sensor can see
-    /// ([`SENSOR_MIN_GAUGE_KPA`](super::SENSOR_MIN_GAUGE_KPA), −85 for the
+    /// ([`SENSOR_MIN_GAUGE_KPA`], −85 for the
     /// 02BA) to 0; `Start` and a tare also check it against the zero.
     pub sensor_min_kpa: f32,
     /// Sensor full scale (kPa gauge): `max_pressure_kpa` must lie below it.
     /// Readings above `max_pressure_kpa` are always treated as
     /// over-pressure, saturated or not. Range 1 to
-    /// [`SENSOR_MAX_GAUGE_KPA`](super::SENSOR_MAX_GAUGE_KPA) (50 for the
+    /// [`SENSOR_MAX_GAUGE_KPA`] (50 for the
     /// 02BA). Default 18: the 02BA's 120 kPa less sea level's 101.3.
     pub sensor_max_kpa: f32,
     /// A reading older than this when the step sees it is stale (ms).
