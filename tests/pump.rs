@@ -55,6 +55,16 @@ fn done(p: Pump) {
     pins.end_full.done();
 }
 
+/// The driver's tests below read the switches as "triggered = low" (the
+/// default is the other way, normally-closed switches: see
+/// `end_stops_follow_polarity`).
+fn low_active() -> PumpConfig {
+    PumpConfig {
+        end_stop_polarity: SwitchPolarity::ActiveLow,
+        ..PumpConfig::default()
+    }
+}
+
 /// One complete STEP pulse on the STEP pin.
 fn pulse() -> [Pin; 2] {
     [Pin::set(State::High), Pin::set(State::Low)]
@@ -69,7 +79,9 @@ fn defaults_are_the_documented_hardware() {
     assert_eq!(c.full_steps_per_rev, 200);
     assert_eq!(c.microsteps, 16);
     assert_eq!(c.syringe_bore_mm, 29.21);
-    assert_eq!(c.end_stop_polarity, SwitchPolarity::ActiveLow);
+    // Normally-closed switches to GND with pull-ups: at the end the switch
+    // opens and the pin reads high, and so does a broken wire.
+    assert_eq!(c.end_stop_polarity, SwitchPolarity::ActiveHigh);
     assert_eq!(c.validate(), Ok(()));
 }
 
@@ -198,7 +210,7 @@ fn enable_is_active_low() {
         enable: vec![Pin::set(State::Low), Pin::set(State::High)],
         ..Expect::default()
     };
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     assert!(!p.is_enabled());
     p.enable().unwrap();
     assert!(p.is_enabled());
@@ -210,7 +222,7 @@ fn enable_is_active_low() {
 #[test]
 fn disabled_pump_refuses_to_step_without_touching_pins() {
     let e = Expect::default();
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     let mut delay = CheckedDelay::new(&[]);
     assert_eq!(
         block_on(p.step(Direction::Inject, &mut delay)),
@@ -227,7 +239,7 @@ fn failed_enable_leaves_the_pump_disabled() {
         enable: vec![Pin::set(State::Low).with_error(MockError::Io(std::io::ErrorKind::Other))],
         ..Expect::default()
     };
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     assert_eq!(p.enable(), Err(PumpError::Pin(PinRole::Enable)));
     assert!(!p.is_enabled());
     done(p);
@@ -260,7 +272,7 @@ fn step_sequence_dir_then_pulse_and_position() {
         Delay::delay_us(2),
         Delay::delay_us(2),
     ]);
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     p.enable().unwrap();
     block_on(p.step(Direction::Inject, &mut delay)).unwrap();
     assert_eq!(p.position_steps(), 1);
@@ -280,7 +292,7 @@ fn step_sequence_dir_then_pulse_and_position() {
 fn inverted_dir_config_flips_the_level() {
     let config = PumpConfig {
         inject_dir_high: false,
-        ..PumpConfig::default()
+        ..low_active()
     };
     let e = Expect {
         enable: vec![Pin::set(State::Low)],
@@ -300,6 +312,36 @@ fn inverted_dir_config_flips_the_level() {
 }
 
 #[test]
+fn a_broken_end_stop_wire_reads_triggered_and_refuses_the_step() {
+    // The default wiring, normally-closed switches to GND with pull-ups:
+    // an open circuit (a broken wire, a loose connector) reads high, as a
+    // switch at the end does.
+    let e = Expect {
+        enable: vec![Pin::set(State::Low)],
+        empty: vec![Pin::get(State::High), Pin::get(State::High)],
+        full: vec![Pin::get(State::Low)],
+        ..Expect::default()
+    };
+    let mut delay = CheckedDelay::new(&[]);
+    let mut p = pump(&e, PumpConfig::default());
+    p.enable().unwrap();
+    assert_eq!(
+        block_on(p.step(Direction::Inject, &mut delay)),
+        Err(PumpError::EndStop)
+    );
+    assert_eq!(
+        p.end_stops(),
+        Ok(EndStops {
+            empty: true,
+            full: false
+        })
+    );
+    assert_eq!(p.position_steps(), 0);
+    done(p);
+    delay.done();
+}
+
+#[test]
 fn closed_end_stop_refuses_with_no_pin_motion() {
     // Active-low: a closed switch reads low.
     let e = Expect {
@@ -309,7 +351,7 @@ fn closed_end_stop_refuses_with_no_pin_motion() {
         ..Expect::default()
     };
     let mut delay = CheckedDelay::new(&[]);
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     p.enable().unwrap();
     assert_eq!(
         block_on(p.step(Direction::Inject, &mut delay)),
@@ -337,7 +379,7 @@ fn only_the_end_stop_ahead_blocks() {
     };
     let mut delay =
         CheckedDelay::new(&[Delay::delay_us(1), Delay::delay_us(2), Delay::delay_us(2)]);
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     p.enable().unwrap();
     block_on(p.step(Direction::Withdraw, &mut delay)).unwrap();
     assert_eq!(p.position_steps(), -1);
@@ -353,7 +395,7 @@ fn end_stops_follow_polarity() {
         full: vec![Pin::get(State::High), Pin::get(State::High)],
         ..Expect::default()
     };
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     assert_eq!(
         p.end_stops(),
         Ok(EndStops {
@@ -370,10 +412,9 @@ fn end_stops_follow_polarity() {
     );
     done(p);
 
-    let active_high = PumpConfig {
-        end_stop_polarity: SwitchPolarity::ActiveHigh,
-        ..PumpConfig::default()
-    };
+    // The default: normally closed, a broken (open) wire reads high =
+    // triggered.
+    let active_high = PumpConfig::default();
     let e = Expect {
         empty: vec![Pin::get(State::Low)],
         full: vec![Pin::get(State::High)],
@@ -403,7 +444,7 @@ fn unreadable_end_stop_refuses_the_step() {
         ..Expect::default()
     };
     let mut delay = CheckedDelay::new(&[]);
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     p.enable().unwrap();
     assert_eq!(
         block_on(p.step(Direction::Inject, &mut delay)),
@@ -432,7 +473,7 @@ fn a_step_counts_once_step_went_high() {
         ..Expect::default()
     };
     let mut delay = CheckedDelay::new(&[Delay::delay_us(1), Delay::delay_us(2)]);
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     p.enable().unwrap();
     assert_eq!(
         block_on(p.step(Direction::Inject, &mut delay)),
@@ -459,7 +500,7 @@ fn disable_blocks_further_steps() {
     };
     let mut delay =
         CheckedDelay::new(&[Delay::delay_us(1), Delay::delay_us(2), Delay::delay_us(2)]);
-    let mut p = pump(&e, PumpConfig::default());
+    let mut p = pump(&e, low_active());
     p.enable().unwrap();
     block_on(p.step(Direction::Inject, &mut delay)).unwrap();
     p.disable().unwrap();

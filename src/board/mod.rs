@@ -13,8 +13,8 @@
 //! | STEP | PA10 (D2) | stepper driver STEP (A4988/DRV8825), idles low; fit a 10 kΩ pull-down so no edge steps the motor while the MCU is in reset |
 //! | DIR | PB3 (D3) | stepper driver DIR (PB3 is SWO: leave SWO trace off) |
 //! | ENABLE | PB5 (D4) | stepper driver EN, active low; boots high (off). Fit a 10 kΩ pull-up to 3.3 V so the driver also stays off while the MCU is in reset |
-//! | end-stop EMPTY | PB4 (D5) | switch to GND, internal pull-up, closed = low (plunger fully in) |
-//! | end-stop FULL | PB10 (D6) | switch to GND, internal pull-up, closed = low (plunger fully out) |
+//! | end-stop EMPTY | PB4 (D5) | normally-closed microswitch to GND, internal pull-up: low in travel, high when the plunger is fully in (the switch opens) or the wire is broken; debounced 2 ms |
+//! | end-stop FULL | PB10 (D6) | normally-closed microswitch to GND, internal pull-up: high when the plunger is fully out or the wire is broken; debounced 2 ms |
 //! | relief valve | PA8 (D7) | logic-level N-MOSFET gate to a normally-open valve: high = energised = closed; fit 100 Ω in series and a 100 kΩ gate-source pull-down so the valve vents while the MCU is in reset |
 //! | advance drive | PA9 (D8) | high = external advance drive on; fit a 10 kΩ pull-down so the drive stays off while the MCU is in reset |
 //! | USART2 TX | PA2 | ST-LINK virtual COM port, 115200 8N1 |

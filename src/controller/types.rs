@@ -51,7 +51,8 @@ pub enum Fault {
     SensorFrozen,
     /// The newest reading is older than the staleness bound.
     SensorStale,
-    /// A pump end-stop switch closed.
+    /// A pump end-stop switch triggered: the plunger at an end, or a
+    /// broken switch wire (normally-closed switches).
     EndStop,
     /// Pump stepped with no pressure response (stalled motor, open line).
     PumpStall,
@@ -123,7 +124,7 @@ pub enum CommandError {
     /// The parameter set is out of range (first offending field).
     InvalidParams(ParamError),
     /// `Reset` (or `Start`) while a monitored cause is present: over-pressure,
-    /// unhealthy sensor (or no reading yet), closed end-stop, volume out of
+    /// unhealthy sensor (or no reading yet), triggered end-stop, volume out of
     /// limits. See `Controller::alarm`.
     CauseActive,
     /// `Start` without a pressure zero in
@@ -154,7 +155,8 @@ pub enum PressureSample {
     Missing,
 }
 
-/// Pump end-stop switches (true = switch closed).
+/// Pump end-stop switches (true = triggered: the plunger at that end, or
+/// the switch's wire broken).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct EndStops {

@@ -47,7 +47,8 @@ pub use control::ControlIo;
 pub struct PumpStatus {
     /// Net volume pushed since power-up (mL, positive = injected).
     pub volume_ml: f32,
-    /// End-stop switches; an unreadable switch reads as closed.
+    /// End-stop switches, debounced; an unreadable switch reads as
+    /// triggered.
     pub end_stops: EndStops,
 }
 

@@ -9,10 +9,10 @@ use super::busy_wait::BusyWait;
 use super::log::{log_error, log_warn};
 use super::{PumpStatus, Shared};
 use crate::controller::{EndStops, PumpCommand};
-use crate::drivers::pump::{Direction, PumpError, SyringePump};
+use crate::drivers::pump::{Direction, EndStopDebounce, PumpError, SyringePump};
 
 /// How often the end-stops are re-read while the motor is not stepping
-/// (ms), so the control loop sees a closed switch within a step or two.
+/// (ms), so the control loop sees a triggered switch within a step or two.
 pub const IDLE_POLL_MS: u64 = 2;
 
 /// Applies [`Shared::pump_command`]s as they arrive.
@@ -22,7 +22,8 @@ pub const IDLE_POLL_MS: u64 = 2;
 /// - `Run`: ENABLE on, one microstep every
 ///   [`crate::drivers::pump::PumpConfig::step_interval_us`] on deadlines
 ///   (no drift from the pulse's own length); a new command cancels the
-///   wait at once. The driver refuses a step into a closed end-stop.
+///   wait at once. The driver refuses a step into a triggered end-stop
+///   (raw reading).
 ///
 /// After every change and every step it publishes [`Shared::pump_status`].
 pub async fn run<S, D, E, Ee, Ef>(mut pump: SyringePump<S, D, E, Ee, Ef>, shared: &Shared) -> !
@@ -34,8 +35,9 @@ where
     Ef: InputPin,
 {
     let mut command = PumpCommand::Disable;
+    let mut debounce = EndStopDebounce::new();
     apply(&mut pump, command);
-    publish(&mut pump, shared);
+    publish(&mut pump, &mut debounce, shared);
     let mut next_step = Instant::now();
     // Logged once per change, not at the step rate.
     let mut last_refusal: Option<PumpError> = None;
@@ -79,7 +81,7 @@ where
                 }
             }
         }
-        publish(&mut pump, shared);
+        publish(&mut pump, &mut debounce, shared);
     }
 }
 
@@ -112,20 +114,25 @@ fn same_motion(old: PumpCommand, new: PumpCommand) -> bool {
     }
 }
 
-/// Publishes volume and end-stops; an unreadable switch reads as closed so
-/// the controller stops.
-fn publish<S, D, E, Ee, Ef>(pump: &mut SyringePump<S, D, E, Ee, Ef>, shared: &Shared)
-where
+/// Publishes volume and debounced end-stops ([`EndStopDebounce`]); an
+/// unreadable switch reads as triggered so the controller stops.
+fn publish<S, D, E, Ee, Ef>(
+    pump: &mut SyringePump<S, D, E, Ee, Ef>,
+    debounce: &mut EndStopDebounce,
+    shared: &Shared,
+) where
     S: OutputPin,
     D: OutputPin,
     E: OutputPin,
     Ee: InputPin,
     Ef: InputPin,
 {
-    let end_stops = pump.end_stops().unwrap_or(EndStops {
+    let raw = pump.end_stops().unwrap_or(EndStops {
         empty: true,
         full: true,
     });
+    // The µs clock wraps after 71 minutes; the debounce takes differences.
+    let end_stops = debounce.update(raw, Instant::now().as_micros() as u32);
     shared.pump_status.sender().send(PumpStatus {
         volume_ml: pump.volume_ml(),
         end_stops,

@@ -18,15 +18,18 @@ pub const MAX_RATE_ML_PER_S: f32 = 4.0;
 /// Microsteps per full step the A4988/DRV8825 family can select.
 const MAX_MICROSTEPS: u16 = 256;
 
-/// Electrical level of an end-stop switch input when the switch is closed.
+/// Electrical level of an end-stop input when the switch is triggered
+/// (the plunger at that end).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SwitchPolarity {
-    /// Closed reads low: switch to ground with a pull-up (the default, and
-    /// fail-safe for a broken wire only with normally-closed switches).
-    #[default]
+    /// Triggered reads low: a normally-open switch to ground with a
+    /// pull-up. Not fail-safe: a broken wire reads as "not at the end".
     ActiveLow,
-    /// Closed reads high: switch to the supply with a pull-down.
+    /// Triggered reads high: a normally-closed switch to ground with a
+    /// pull-up, the board's wiring (the default). Fail-safe: a broken wire
+    /// or a lost connector reads high, as triggered, and stops the cycle.
+    #[default]
     ActiveHigh,
 }
 
@@ -50,7 +53,8 @@ pub struct PumpConfig {
     /// DIR level that moves the plunger in (injects). Default high; flip it
     /// instead of rewiring when the motor turns the wrong way.
     pub inject_dir_high: bool,
-    /// Electrical polarity of both end-stop switches. Default active-low.
+    /// Electrical polarity of both end-stop switches. Default
+    /// [`SwitchPolarity::ActiveHigh`]: normally-closed switches.
     pub end_stop_polarity: SwitchPolarity,
 }
 
@@ -63,7 +67,7 @@ impl Default for PumpConfig {
             syringe_bore_mm: 29.21,
             stroke_ml: 50.0,
             inject_dir_high: true,
-            end_stop_polarity: SwitchPolarity::ActiveLow,
+            end_stop_polarity: SwitchPolarity::ActiveHigh,
         }
     }
 }

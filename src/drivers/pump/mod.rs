@@ -12,6 +12,7 @@
 //! the plunger towards the `empty` end-stop; withdrawing towards `full`.
 
 pub mod config;
+pub mod debounce;
 
 use embedded_hal::digital::{InputPin, OutputPin};
 use embedded_hal_async::delay::DelayNs;
@@ -21,6 +22,7 @@ pub use config::{
     PumpConfig, PumpConfigError, PumpConfigField, SwitchPolarity, MAX_RATE_ML_PER_S,
     MIN_STEP_PERIOD_US,
 };
+pub use debounce::{EndStopDebounce, END_STOP_DEBOUNCE_US};
 
 /// STEP high time (µs).
 pub const STEP_HIGH_US: u32 = 2;
@@ -62,9 +64,9 @@ pub struct PumpPins<Step, Dir, Enable, EndEmpty, EndFull> {
     pub dir: Dir,
     /// ENABLE output, active-low (high = motor outputs off).
     pub enable: Enable,
-    /// End-stop switch closed when the plunger is fully in.
+    /// End-stop switch, triggered when the plunger is fully in.
     pub end_empty: EndEmpty,
-    /// End-stop switch closed when the plunger is fully out.
+    /// End-stop switch, triggered when the plunger is fully out.
     pub end_full: EndFull,
 }
 
@@ -88,7 +90,8 @@ pub enum PinRole {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum PumpError {
-    /// The end-stop in the requested direction is closed: no step was made.
+    /// The end-stop in the requested direction is triggered: no step was
+    /// made.
     EndStop,
     /// The driver is disabled: no step was made.
     Disabled,
@@ -183,7 +186,7 @@ where
         self.enabled
     }
 
-    fn closed<P: InputPin>(
+    fn triggered<P: InputPin>(
         pin: &mut P,
         polarity: SwitchPolarity,
         role: PinRole,
@@ -195,11 +198,13 @@ where
         read.map_err(|_| PumpError::Pin(role))
     }
 
-    /// Reads both end-stop switches (`empty` first), true = closed.
+    /// Reads both end-stop switches (`empty` first), true = triggered (per
+    /// [`PumpConfig::end_stop_polarity`]), raw: the pump task debounces
+    /// what it reports ([`EndStopDebounce`]).
     pub fn end_stops(&mut self) -> Result<EndStops, PumpError> {
         let polarity = self.config.end_stop_polarity;
-        let empty = Self::closed(&mut self.pins.end_empty, polarity, PinRole::EndEmpty)?;
-        let full = Self::closed(&mut self.pins.end_full, polarity, PinRole::EndFull)?;
+        let empty = Self::triggered(&mut self.pins.end_empty, polarity, PinRole::EndEmpty)?;
+        let full = Self::triggered(&mut self.pins.end_full, polarity, PinRole::EndFull)?;
         Ok(EndStops { empty, full })
     }
 
@@ -207,7 +212,7 @@ where
     ///
     /// Refuses, touching no output, when disabled ([`PumpError::Disabled`]),
     /// when the end-stop ahead (`empty` for inject, `full` for withdraw) is
-    /// closed or unreadable ([`PumpError::EndStop`] / [`PumpError::Pin`]),
+    /// triggered or unreadable ([`PumpError::EndStop`] / [`PumpError::Pin`]),
     /// or when the count would overflow. Otherwise writes DIR (waiting
     /// [`DIR_SETUP_US`] if its level changed), raises STEP for
     /// [`STEP_HIGH_US`], lowers it and waits [`STEP_LOW_US`]. The step counts
@@ -223,11 +228,11 @@ where
         let polarity = self.config.end_stop_polarity;
         let (blocked, delta) = match direction {
             Direction::Inject => (
-                Self::closed(&mut self.pins.end_empty, polarity, PinRole::EndEmpty)?,
+                Self::triggered(&mut self.pins.end_empty, polarity, PinRole::EndEmpty)?,
                 1,
             ),
             Direction::Withdraw => (
-                Self::closed(&mut self.pins.end_full, polarity, PinRole::EndFull)?,
+                Self::triggered(&mut self.pins.end_full, polarity, PinRole::EndFull)?,
                 -1,
             ),
         };

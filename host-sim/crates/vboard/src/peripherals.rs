@@ -134,7 +134,8 @@ impl OutputPin for PumpPin {
     }
 }
 
-/// An end-stop switch to GND with a pull-up: closed reads low.
+/// A normally-closed end-stop switch to GND with a pull-up, as the board
+/// wires it: at the end the switch opens and the pin reads high.
 pub struct EndStopPin {
     rig: SharedRig,
     empty: bool,
@@ -146,7 +147,7 @@ impl EndStopPin {
         Self { rig, empty }
     }
 
-    fn closed(&self) -> bool {
+    fn triggered(&self) -> bool {
         let stops = lock(&self.rig).plant.end_stops();
         if self.empty {
             stops.empty
@@ -162,11 +163,11 @@ impl PinErrorType for EndStopPin {
 
 impl InputPin for EndStopPin {
     fn is_high(&mut self) -> Result<bool, Infallible> {
-        Ok(!self.closed())
+        Ok(self.triggered())
     }
 
     fn is_low(&mut self) -> Result<bool, Infallible> {
-        Ok(self.closed())
+        Ok(!self.triggered())
     }
 }
 
