@@ -9,6 +9,18 @@
 use super::params::{ParamField, Params};
 use super::types::Fault;
 use crate::drivers::ms5837::Model;
+use crate::drivers::pump::ACCEL_ML_PER_S2;
+
+/// `ms` rounded up to whole control periods, without std float methods.
+const fn ceil_periods(ms: f32) -> u32 {
+    let t = CONTROL_PERIOD_MS as f32;
+    let periods = (ms / t) as u32;
+    if (periods as f32) * t < ms {
+        periods + 1
+    } else {
+        periods
+    }
+}
 
 /// The pressure sensor this build is for: one model per build, as fitted.
 /// The MS5837-02BA by default (the wiring's part: 300–1200 mbar absolute
@@ -82,7 +94,9 @@ pub const CONTROL_OVERRUN_LIMIT_MS: u32 = 3 * CONTROL_PERIOD_MS;
 /// - stale: `sensor_stale_ms` + one period; frozen: `sensor_frozen_ms` + one
 ///   period (counted from the last change of the value);
 /// - pump stall: two blocks of `stall_volume_ml` at the expand rate, each
-///   rounded up to whole periods plus one period for the float sum;
+///   rounded up to whole periods plus one period for the float sum, plus
+///   the pump's ramp to that rate (`rate / ACCEL_ML_PER_S2`, whole
+///   periods);
 /// - diameter mismatch: `diameter_mismatch_ms` + one period (from the last
 ///   step within the tolerance);
 /// - control overrun: 0, it latches in the late step itself; a loop that
@@ -105,15 +119,12 @@ pub const fn detection_bound_ms(fault: Fault, params: &Params) -> u32 {
         Fault::SensorStale => params.sensor_stale_ms.saturating_add(t),
         Fault::SensorFrozen => params.sensor_frozen_ms.saturating_add(t),
         Fault::PumpStall => {
-            let block_ms = params.stall_volume_ml / params.expand_rate_ml_per_s * 1000.0;
-            // Ceiling to whole periods without std float methods.
-            let periods = (block_ms / t as f32) as u32;
-            let periods = if (periods as f32) * (t as f32) < block_ms {
-                periods + 1
-            } else {
-                periods
-            };
-            2 * (periods + 1) * t
+            let rate = params.expand_rate_ml_per_s;
+            let block_ms = params.stall_volume_ml / rate * 1000.0;
+            // The pump reaches the rate after its ramp; the first block is
+            // late by at most the ramp's time.
+            let ramp_ms = rate / ACCEL_ML_PER_S2 * 1000.0;
+            2 * (ceil_periods(block_ms) + 1) * t + ceil_periods(ramp_ms) * t
         }
         Fault::DiameterMismatch => params.diameter_mismatch_ms.saturating_add(t),
         // Latched at boot from the handler's record, no detection time.
@@ -126,6 +137,81 @@ pub const fn detection_bound_ms(fault: Fault, params: &Params) -> u32 {
             }
         }
     }
+}
+
+/// The board's timing around the controller, for the end-to-end bounds
+/// ([`end_to_end_bound_ms`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BoardTiming {
+    /// Time between sensor reads (ms): one per control period.
+    pub sensor_period_ms: u32,
+    /// Longest from the start of a read (the pressure's sampling, D1
+    /// first) to its publication (ms): two conversions and the bus
+    /// traffic, rounded up.
+    pub sensor_read_ms: u32,
+    /// Longest from an end-stop switch opening to the pump task publishing
+    /// it (ms): the debounce and the pump task's idle poll.
+    pub end_stop_delay_ms: u32,
+    /// The relief valve's response (ms): from its gate going low to the
+    /// line vented. A property of the fitted valve (small solenoid valves:
+    /// 10–50 ms); not modelled by the emulator's plant.
+    pub valve_response_ms: u32,
+}
+
+/// The board's timing: sensor read every period, a read within 7 ms
+/// (OSR 1024: 2 × 2.28 ms + 1.6 ms of bus, `tasks::sensor::READ_MAX_US`),
+/// end-stops within 4 ms (2 ms debounce + 2 ms idle poll), and a 50 ms
+/// valve.
+pub const BOARD_TIMING: BoardTiming = BoardTiming {
+    sensor_period_ms: CONTROL_PERIOD_MS,
+    sensor_read_ms: 7,
+    end_stop_delay_ms: 4,
+    valve_response_ms: 50,
+};
+
+/// Longest time (ms) from the physical event to the line vented, under
+/// `params` and `timing`: [`detection_bound_ms`] (from the first step whose
+/// inputs show the fault) plus what lies before and after it.
+///
+/// - Faults seen through the pressure (over-pressure, out of range, leak,
+///   stall, diameter mismatch): the sensor's period and read time before
+///   a reading shows the event; or, if the readings stop meanwhile, the
+///   oldest reading accepted (`sensor_stale_ms`, the stale fault's bound),
+///   whichever is longer.
+/// - Sensor faults (bus, stale, frozen) are timed from the sensor's
+///   failure: their own bound.
+/// - End-stop: the switch's debounce and poll before the step.
+/// - Volume limit, overrun, link loss, panic: the pump task publishes the
+///   count at every step; the others need no input.
+///
+/// Every fault then adds the valve's response. The control loop's phase
+/// is inside each bound's period.
+pub const fn end_to_end_bound_ms(fault: Fault, params: &Params, timing: &BoardTiming) -> u32 {
+    let bound = detection_bound_ms(fault, params);
+    let sensed = timing.sensor_period_ms + timing.sensor_read_ms + bound;
+    let stale = detection_bound_ms(Fault::SensorStale, params);
+    let before = match fault {
+        Fault::OverPressure
+        | Fault::SensorOutOfRange
+        | Fault::Leak
+        | Fault::PumpStall
+        | Fault::DiameterMismatch => {
+            if sensed > stale {
+                sensed
+            } else {
+                stale
+            }
+        }
+        Fault::EndStop => timing.end_stop_delay_ms + bound,
+        Fault::SensorBus
+        | Fault::SensorFrozen
+        | Fault::SensorStale
+        | Fault::VolumeLimit
+        | Fault::ControlOverrun
+        | Fault::LinkLoss
+        | Fault::Panic => bound,
+    };
+    before.saturating_add(timing.valve_response_ms)
 }
 
 /// Over-pressure: the step that sees the reading.
@@ -141,7 +227,7 @@ pub const SENSOR_FROZEN_DETECT_MS: u32 = detection_bound_ms(Fault::SensorFrozen,
 pub const SENSOR_STALE_DETECT_MS: u32 = detection_bound_ms(Fault::SensorStale, &Params::DEFAULT);
 /// End-stop closed while active: the step that sees it.
 pub const END_STOP_DETECT_MS: u32 = detection_bound_ms(Fault::EndStop, &Params::DEFAULT);
-/// Pump stall (default 2 × (500 + 10) ms).
+/// Pump stall (default 2 × (500 + 10) ms + 10 ms of ramp).
 pub const PUMP_STALL_DETECT_MS: u32 = detection_bound_ms(Fault::PumpStall, &Params::DEFAULT);
 /// Leak during a hold: the step where the drop exceeds the limit.
 pub const LEAK_DETECT_MS: u32 = detection_bound_ms(Fault::Leak, &Params::DEFAULT);
@@ -184,8 +270,9 @@ mod tests {
         assert_eq!(SENSOR_BUS_DETECT_MS, 50);
         assert_eq!(SENSOR_FROZEN_DETECT_MS, 310);
         assert_eq!(SENSOR_STALE_DETECT_MS, 60);
-        // 1 mL at 2 mL/s = 500 ms = 50 periods; 2 × (50 + 1) × 10 ms.
-        assert_eq!(PUMP_STALL_DETECT_MS, 1020);
+        // 1 mL at 2 mL/s = 500 ms = 50 periods; 2 × (50 + 1) × 10 ms,
+        // plus the 10 ms ramp to 2 mL/s at 200 mL/s².
+        assert_eq!(PUMP_STALL_DETECT_MS, 1030);
         assert_eq!(DIAMETER_MISMATCH_DETECT_MS, 510);
         assert_eq!(LINK_LOSS_DETECT_MS, 2010);
     }
@@ -223,6 +310,28 @@ mod tests {
     }
 
     #[test]
+    fn end_to_end_bounds_of_the_defaults() {
+        let p = Params::DEFAULT;
+        let b = |f| end_to_end_bound_ms(f, &p, &BOARD_TIMING);
+        // A pressure event: max(10 + 7 + 10, 60) + 50 ms of valve.
+        assert_eq!(b(Fault::OverPressure), 110);
+        assert_eq!(b(Fault::Leak), 110);
+        // The sensor's own faults: their bound + the valve.
+        assert_eq!(b(Fault::SensorBus), 100);
+        assert_eq!(b(Fault::SensorStale), 110);
+        assert_eq!(b(Fault::SensorFrozen), 360);
+        // 4 ms of debounce and poll, the step, the valve.
+        assert_eq!(b(Fault::EndStop), 64);
+        assert_eq!(b(Fault::PumpStall), 10 + 7 + 1030 + 50);
+        assert_eq!(b(Fault::DiameterMismatch), 10 + 7 + 510 + 50);
+        assert_eq!(b(Fault::LinkLoss), 2060);
+        assert_eq!(b(Fault::Panic), 50);
+        for f in Fault::ALL {
+            assert!(b(f) >= detection_bound_ms(f, &p) + BOARD_TIMING.valve_response_ms);
+        }
+    }
+
+    #[test]
     fn zero_range() {
         assert!(pressure_zero_in_range(101.325));
         assert!(!pressure_zero_in_range(f32::NAN));
@@ -237,7 +346,8 @@ mod tests {
             expand_rate_ml_per_s: 3.0,
             ..Params::DEFAULT
         };
-        // 333.3 ms → 34 periods; 2 × 35 × 10.
-        assert_eq!(detection_bound_ms(Fault::PumpStall, &p), 700);
+        // 333.3 ms → 34 periods; 2 × 35 × 10, plus a 15 ms ramp → 2
+        // periods.
+        assert_eq!(detection_bound_ms(Fault::PumpStall, &p), 720);
     }
 }

@@ -69,22 +69,27 @@
 //!
 //! Bound: longest time from the last step with healthy inputs to the first
 //! step whose outputs are safe (see [`detection_bound_ms`]; defaults in
-//! brackets, as the `*_DETECT_MS` constants).
+//! brackets, as the `*_DETECT_MS` constants). End to end: from the physical
+//! event to the line vented, adding the sensor's period and read time, the
+//! oldest reading accepted (`sensor_stale_ms`), the end-stops' debounce and
+//! the valve's response ([`end_to_end_bound_ms`] with [`BOARD_TIMING`]). A
+//! panic or HardFault drives the outputs safe in its handler: the valve's
+//! response alone [50 ms].
 //!
-//! | fault | detection rule | bound | where |
-//! |---|---|---|---|
-//! | `OverPressure` | reading > `max_pressure_kpa` (+∞ included, even above the sensor range) | 1 period [10 ms] | all states |
-//! | `SensorBus` | `sensor_bus_error_steps` consecutive `BusError`/`Missing` (the sensor task publishes `BusError` after two failed periods, [`crate::sensing`]) | 2 + that many periods from the first failed read [50 ms] | active |
-//! | `SensorOutOfRange` | reading NaN, −∞ or below `sensor_min_kpa` | 1 period [10 ms] | active |
-//! | `SensorFrozen` | bit-identical reading for ≥ `sensor_frozen_ms` while the pump runs | `sensor_frozen_ms` + 1 period [310 ms] | active |
-//! | `SensorStale` | `now − taken_ms` > `sensor_stale_ms` (wrapping; a future stamp is stale) | `sensor_stale_ms` + 1 period [60 ms] | active |
-//! | `EndStop` | `empty` or `full` closed (injecting drives towards `empty`) | 1 period [10 ms] | active |
-//! | `VolumeLimit` | pump volume NaN, > `max_volume_ml` or < `min_volume_ml` | 1 period [10 ms] | all states |
-//! | `PumpStall` | in Expand, a block of `stall_volume_ml` pumped with a rise < `stall_min_rise_kpa` | 2 blocks + 2 periods [1020 ms] | Expand |
-//! | `Leak` | in Hold, pressure > max(`leak_max_drop_kpa`, `leak_max_drop_fraction` × peak) below the hold's peak | 1 period [10 ms] | Hold |
-//! | `DiameterMismatch` | in Expand, \|D_table − D_volume\| > `diameter_mismatch_mm` for ≥ `diameter_mismatch_ms` | `diameter_mismatch_ms` + 1 period [510 ms] | Expand |
-//! | `ControlOverrun` | step more than [`CONTROL_OVERRUN_LIMIT_MS`] (30 ms) after the previous one, or time going backwards | the late step itself [0 ms] | active |
-//! | `LinkLoss` | no command (a `Heartbeat` counts) for more than `link_timeout_ms` (0 = watch off, only allowed with a cycle limit) | `link_timeout_ms` + 1 period [2010 ms] | active |
+//! | fault | detection rule | bound | end to end | where |
+//! |---|---|---|---|---|
+//! | `OverPressure` | reading > `max_pressure_kpa` (+∞ included, even above the sensor range) | 1 period [10 ms] | max(sensor period + read + bound, stale bound) + valve [110 ms] | all states |
+//! | `SensorBus` | `sensor_bus_error_steps` consecutive `BusError`/`Missing` (the sensor task publishes `BusError` after two failed periods, [`crate::sensing`]) | 2 + that many periods from the first failed read [50 ms] | bound + valve [100 ms] | active |
+//! | `SensorOutOfRange` | reading NaN, −∞ or below `sensor_min_kpa` | 1 period [10 ms] | as `OverPressure` [110 ms] | active |
+//! | `SensorFrozen` | bit-identical reading for ≥ `sensor_frozen_ms` while the pump runs | `sensor_frozen_ms` + 1 period [310 ms] | bound + valve [360 ms] | active |
+//! | `SensorStale` | `now − taken_ms` > `sensor_stale_ms` (wrapping; a future stamp is stale) | `sensor_stale_ms` + 1 period [60 ms] | bound + valve [110 ms] | active |
+//! | `EndStop` | `empty` or `full` triggered (debounced) (injecting drives towards `empty`) | 1 period [10 ms] | debounce + poll + bound + valve [64 ms] | active |
+//! | `VolumeLimit` | pump volume NaN, > `max_volume_ml` or < `min_volume_ml` | 1 period [10 ms] | bound + valve [60 ms] | all states |
+//! | `PumpStall` | in Expand, a block of `stall_volume_ml` pumped (counted steps) with a rise < `stall_min_rise_kpa` | 2 blocks + 2 periods + the pump's ramp [1030 ms] | sensor period + read + bound + valve [1097 ms] | Expand |
+//! | `Leak` | in Hold, pressure > max(`leak_max_drop_kpa`, `leak_max_drop_fraction` × peak) below the hold's peak | 1 period [10 ms] | as `OverPressure` [110 ms] | Hold |
+//! | `DiameterMismatch` | in Expand, \|D_table − D_volume\| > `diameter_mismatch_mm` for ≥ `diameter_mismatch_ms` | `diameter_mismatch_ms` + 1 period [510 ms] | sensor period + read + bound + valve [577 ms] | Expand |
+//! | `ControlOverrun` | step more than [`CONTROL_OVERRUN_LIMIT_MS`] (30 ms) after the previous one, or time going backwards | the late step itself [0 ms] | valve [50 ms]; a loop that stops for good: the watchdog's reset, then the pull resistors | active |
+//! | `LinkLoss` | no command (a `Heartbeat` counts) for more than `link_timeout_ms` (0 = watch off, only allowed with a cycle limit) | `link_timeout_ms` + 1 period [2010 ms] | bound + valve [2060 ms] | active |
 //!
 //! Safe action for every row: pump disabled, relief valve open, advance
 //! drive off, latched until an accepted `Reset`.

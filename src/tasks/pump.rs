@@ -1,5 +1,7 @@
 //! The pump task: turns the latest [`PumpCommand`] into STEP pulses at the
-//! commanded rate and reports the plunger's volume and end-stops.
+//! commanded rate, ramped, and reports the plunger's volume and end-stops.
+//! The pulses are timed by the executor (one wake-up per microstep, 2 µs
+//! busy-waited pulses), not by a hardware timer.
 
 use embassy_futures::select::{select, Either};
 use embassy_time::{Duration, Instant, Timer};
@@ -9,21 +11,34 @@ use super::busy_wait::BusyWait;
 use super::log::{log_error, log_warn};
 use super::{PumpStatus, Shared};
 use crate::controller::{EndStops, PumpCommand};
-use crate::drivers::pump::{Direction, EndStopDebounce, PumpError, SyringePump};
+use crate::drivers::pump::{Direction, EndStopDebounce, Plan, PumpError, StepPlanner, SyringePump};
 
 /// How often the end-stops are re-read while the motor is not stepping
 /// (ms), so the control loop sees a triggered switch within a step or two.
 pub const IDLE_POLL_MS: u64 = 2;
 
-/// Applies [`Shared::pump_command`]s as they arrive.
+// The end-to-end bounds count on a switch published within the board's
+// stated delay: the debounce, then at most one idle poll.
+const _: () = assert!(
+    crate::drivers::pump::END_STOP_DEBOUNCE_US / 1_000 + IDLE_POLL_MS as u32
+        <= crate::controller::BOARD_TIMING.end_stop_delay_ms
+);
+
+/// Applies [`Shared::pump_command`]s as they arrive, through a
+/// trapezoidal [`StepPlanner`] (rate changes at most
+/// [`ACCEL_ML_PER_S2`](crate::drivers::pump::ACCEL_ML_PER_S2), every
+/// reversal through a stop).
 ///
-/// - `Disable`: ENABLE off, no steps (the boot state).
-/// - `Hold`: ENABLE on, no steps.
-/// - `Run`: ENABLE on, one microstep every
-///   [`crate::drivers::pump::PumpConfig::step_interval_us`] on deadlines
-///   (no drift from the pulse's own length); a new command cancels the
-///   wait at once. The driver refuses a step into a triggered end-stop
-///   (raw reading).
+/// - `Disable`: ENABLE off, no steps, the planner stopped at once (the
+///   boot state; the fault state).
+/// - `Hold`: ENABLE on, the rate ramps down to rest (at most 0.04 mL
+///   further, from 4 mL/s), then no steps.
+/// - `Run`: ENABLE on, the rate ramps to the command's (clamped to
+///   [`MAX_RATE_ML_PER_S`](crate::drivers::pump::MAX_RATE_ML_PER_S)); each
+///   microstep on its planned deadline after the previous one (no drift
+///   from the pulse's own length). A new command re-targets the planner
+///   from the next step on. The driver refuses a step into a triggered
+///   end-stop (raw reading), and the planner restarts from standstill.
 ///
 /// After every change and every step it publishes [`Shared::pump_status`].
 pub async fn run<S, D, E, Ee, Ef>(mut pump: SyringePump<S, D, E, Ee, Ef>, shared: &Shared) -> !
@@ -36,48 +51,56 @@ where
 {
     let mut command = PumpCommand::Disable;
     let mut debounce = EndStopDebounce::new();
+    let mut planner = StepPlanner::new(pump.config().ml_per_step());
     apply(&mut pump, command);
     publish(&mut pump, &mut debounce, shared);
-    let mut next_step = Instant::now();
+    let mut last_step = Instant::now();
+    let mut pending: Option<(Direction, Instant)> = None;
     // Logged once per change, not at the step rate.
     let mut last_refusal: Option<PumpError> = None;
     loop {
-        let motion = match command {
-            PumpCommand::Run { rate_ml_per_s } => Direction::from_rate(rate_ml_per_s)
-                .zip(pump.config().step_interval_us(rate_ml_per_s))
-                .map(|(dir, us)| (dir, Duration::from_micros(u64::from(us)))),
-            PumpCommand::Disable | PumpCommand::Hold => None,
-        };
-        let wake_at = match motion {
-            Some(_) => next_step,
+        if pending.is_none() && command != PumpCommand::Disable {
+            let target = match command {
+                PumpCommand::Run { rate_ml_per_s } => rate_ml_per_s,
+                PumpCommand::Disable | PumpCommand::Hold => 0.0,
+            };
+            let from_rest = planner.rate_ml_per_s() == 0.0;
+            if let Plan::Step { direction, wait_us } = planner.next(target) {
+                let base = if from_rest { Instant::now() } else { last_step };
+                pending = Some((direction, base + Duration::from_micros(u64::from(wait_us))));
+            }
+        }
+        let wake_at = match pending {
+            Some((_, at)) => at,
             None => Instant::now() + Duration::from_millis(IDLE_POLL_MS),
         };
         match select(shared.pump_command.wait(), Timer::at(wake_at)).await {
             Either::First(new) => {
-                if !same_motion(command, new) {
-                    // A start or reversal steps at once, then on the new period.
-                    next_step = Instant::now();
-                }
                 command = new;
+                if command == PumpCommand::Disable {
+                    planner.stop_now();
+                    pending = None;
+                }
                 apply(&mut pump, command);
             }
             Either::Second(()) => {
-                if let Some((direction, interval)) = motion {
+                if let Some((direction, at)) = pending.take() {
                     // On a refusal (end-stop, disabled) no step was made;
                     // the controller sees the end-stop and decides.
                     let refusal = pump.step(direction, &mut BusyWait).await.err();
+                    if refusal.is_some() {
+                        planner.stop_now();
+                    }
                     if refusal != last_refusal {
                         if let Some(e) = refusal {
                             log_warn!("pump: step refused: {}", e);
                         }
                         last_refusal = refusal;
                     }
-                    next_step += interval;
-                    // After a stall of the executor, do not burst to catch up.
+                    // After a stall of the executor, do not burst to
+                    // catch up.
                     let now = Instant::now();
-                    if next_step < now {
-                        next_step = now;
-                    }
+                    last_step = if at < now { now } else { at };
                 }
             }
         }
@@ -100,17 +123,6 @@ where
     };
     if let Err(e) = result {
         log_error!("pump: {} failed: {}", command, e);
-    }
-}
-
-/// True when `new` keeps stepping the same way as `old` (only the rate may
-/// differ): the step schedule then continues.
-fn same_motion(old: PumpCommand, new: PumpCommand) -> bool {
-    match (old, new) {
-        (PumpCommand::Run { rate_ml_per_s: a }, PumpCommand::Run { rate_ml_per_s: b }) => {
-            Direction::from_rate(a).is_some() && Direction::from_rate(a) == Direction::from_rate(b)
-        }
-        _ => false,
     }
 }
 

@@ -13,6 +13,7 @@
 
 pub mod config;
 pub mod debounce;
+pub mod ramp;
 
 use embedded_hal::digital::{InputPin, OutputPin};
 use embedded_hal_async::delay::DelayNs;
@@ -23,6 +24,7 @@ pub use config::{
     MIN_STEP_PERIOD_US,
 };
 pub use debounce::{EndStopDebounce, END_STOP_DEBOUNCE_US};
+pub use ramp::{Plan, StepPlanner, ACCEL_ML_PER_S2};
 
 /// STEP high time (µs).
 pub const STEP_HIGH_US: u32 = 2;

@@ -11,8 +11,9 @@ use emulator::{named, run, Trace, DEFAULT_SEED};
 use rig::Experiment;
 use sand::{ParametricSand, SolverSand};
 use urechis::controller::{
-    detection_bound_ms, ExpansionZone, Fault, Params, PressureSample, PumpCommand, State,
-    CONTROL_PERIOD_MS, PLATEAU_CONFIRM_SAMPLES, PLATEAU_WINDOW_SAMPLES,
+    detection_bound_ms, end_to_end_bound_ms, ExpansionZone, Fault, Params, PressureSample,
+    PumpCommand, State, BOARD_TIMING, CONTROL_PERIOD_MS, PLATEAU_CONFIRM_SAMPLES,
+    PLATEAU_WINDOW_SAMPLES,
 };
 use urechis::replay::{check, Field, ReplayError};
 use urechis::table::generated::TABLE;
@@ -38,7 +39,26 @@ fn assert_fault(outcome: &Outcome, fault: Fault, allowance_ms: u32) -> i64 {
     );
     assert!(outcome.pump_disabled_in_fault);
     assert_eq!(outcome.steps_after_fault, 0);
+    // End to end: the latency plus the valve's response stays within the
+    // bound stated with the board's timing.
+    let end_to_end = end_to_end_bound_ms(fault, &Params::DEFAULT, &BOARD_TIMING);
+    assert!(
+        d.latency_ms + i64::from(BOARD_TIMING.valve_response_ms) <= i64::from(end_to_end),
+        "{fault:?}: {} ms + valve > {end_to_end} ms",
+        d.latency_ms
+    );
     d.latency_ms
+}
+
+#[test]
+fn the_emulated_sensor_is_timed_like_the_boards() {
+    // The emulator's sample age (a period plus the conversion lag) must
+    // not be shorter than what the board's end-to-end bounds allow for,
+    // nor its period other than the board's.
+    let s = emulator::sensor::SensorConfig::default();
+    assert_eq!(s.period_ms, BOARD_TIMING.sensor_period_ms);
+    assert!(s.read_phase_ms <= BOARD_TIMING.sensor_read_ms);
+    assert!(s.max_sample_age_ms() <= BOARD_TIMING.sensor_period_ms + BOARD_TIMING.sensor_read_ms);
 }
 
 /// Every step from the fault on: pump disabled, valve open, drive off;
