@@ -214,8 +214,11 @@ fn cycles_zero_runs_until_stop() {
 #[test]
 fn frozen_reading_at_constant_volume_is_normal_but_not_while_pumping() {
     let store = LawTable::new(slow());
+    // A long stall block: the shrink's stall rule (no fall in 1 mL =
+    // 250 ms) would otherwise name the frozen reading first as a stall.
     let params = Params {
         hold_ms: 2000,
+        stall_volume_ml: 5.0,
         ..Params::DEFAULT
     };
     let mut bench = Bench::new(params, store.table(), Plant::new(slow(), 40.0)).unwrap();

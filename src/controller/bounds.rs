@@ -93,7 +93,9 @@ pub const CONTROL_OVERRUN_LIMIT_MS: u32 = 3 * CONTROL_PERIOD_MS;
 ///   it publishes `BusError`, then `sensor_bus_error_steps` steps;
 /// - stale: `sensor_stale_ms` + one period; frozen: `sensor_frozen_ms` + one
 ///   period (counted from the last change of the value);
-/// - pump stall: two blocks of `stall_volume_ml` at the expand rate, each
+/// - pump stall: two blocks of `stall_volume_ml` at the rate in use (the
+///   expand rate in Expand, the shrink rate in Shrink; the bound takes the
+///   slower), each
 ///   rounded up to whole periods plus one period for the float sum, plus
 ///   the pump's ramp to that rate (`rate / ACCEL_ML_PER_S2`, whole
 ///   periods);
@@ -119,7 +121,13 @@ pub const fn detection_bound_ms(fault: Fault, params: &Params) -> u32 {
         Fault::SensorStale => params.sensor_stale_ms.saturating_add(t),
         Fault::SensorFrozen => params.sensor_frozen_ms.saturating_add(t),
         Fault::PumpStall => {
-            let rate = params.expand_rate_ml_per_s;
+            // The slower of the two pumping rates: Expand's blocks at the
+            // expand rate, Shrink's at the shrink rate.
+            let rate = if params.expand_rate_ml_per_s < params.shrink_rate_ml_per_s {
+                params.expand_rate_ml_per_s
+            } else {
+                params.shrink_rate_ml_per_s
+            };
             let block_ms = params.stall_volume_ml / rate * 1000.0;
             // The pump reaches the rate after its ramp; the first block is
             // late by at most the ramp's time.

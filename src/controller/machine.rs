@@ -44,6 +44,7 @@ pub struct Controller<'t> {
     last_now_ms: Option<u32>,
     state_since_ms: u32,
     rest_volume_ml: f32,
+    rest_pressure_kpa: f32,
     target_volume_ml: f32,
     pump_ran: bool,
     last_expand_end: Option<ExpandEnd>,
@@ -100,6 +101,7 @@ impl<'t> Controller<'t> {
             last_now_ms: None,
             state_since_ms: 0,
             rest_volume_ml: 0.0,
+            rest_pressure_kpa: 0.0,
             target_volume_ml: 0.0,
             pump_ran: false,
             last_expand_end: None,
@@ -239,6 +241,16 @@ impl<'t> Controller<'t> {
                 let (mut stall, mut leak, mut mismatch) = (false, false, false);
                 match self.state {
                     State::Expand => (stall, mismatch, plateau) = self.watch_expand(&m),
+                    State::Shrink => {
+                        stall = m.pressure_kpa.is_some_and(|p| {
+                            self.stall.observe_withdrawal(
+                                m.volume_ml,
+                                p,
+                                self.rest_pressure_kpa,
+                                &self.params,
+                            )
+                        })
+                    }
                     State::Hold => {
                         leak = m
                             .pressure_kpa
@@ -398,6 +410,7 @@ impl<'t> Controller<'t> {
                     return Err(CommandError::CauseActive);
                 }
                 self.rest_volume_ml = m.volume_ml;
+                self.rest_pressure_kpa = m.pressure_kpa.unwrap_or(0.0);
                 self.target_volume_ml =
                     m.volume_ml + self.zone.volume_ml(self.params.target_diameter_mm);
                 self.cycle = 0;
@@ -488,6 +501,7 @@ impl<'t> Controller<'t> {
                 self.mismatch.reset();
             }
             State::Hold => self.leak.reset(m.pressure_kpa),
+            State::Shrink => self.stall.reset(m.volume_ml, m.pressure_kpa),
             State::Idle => self.stopping = false,
             _ => {}
         }

@@ -85,7 +85,7 @@
 //! | `SensorStale` | `now − taken_ms` > `sensor_stale_ms` (wrapping; a future stamp is stale) | `sensor_stale_ms` + 1 period [60 ms] | bound + valve [110 ms] | active |
 //! | `EndStop` | `empty` or `full` triggered (debounced) (injecting drives towards `empty`) | 1 period [10 ms] | debounce + poll + bound + valve [64 ms] | active |
 //! | `VolumeLimit` | pump volume NaN, > `max_volume_ml` or < `min_volume_ml` | 1 period [10 ms] | bound + valve [60 ms] | all states |
-//! | `PumpStall` | in Expand, a block of `stall_volume_ml` pumped (counted steps) with a rise < `stall_min_rise_kpa` | 2 blocks + 2 periods + the pump's ramp [1030 ms] | sensor period + read + bound + valve [1097 ms] | Expand |
+//! | `PumpStall` | a block of `stall_volume_ml` pumped (counted steps) with a pressure change < `stall_min_rise_kpa`: a rise in Expand, a fall in Shrink (unless already within that of the pressure at `Start`) | 2 blocks at the slower pumping rate + 2 periods + the pump's ramp [1030 ms] | sensor period + read + bound + valve [1097 ms] | Expand, Shrink |
 //! | `Leak` | in Hold, pressure > max(`leak_max_drop_kpa`, `leak_max_drop_fraction` × peak) below the hold's peak | 1 period [10 ms] | as `OverPressure` [110 ms] | Hold |
 //! | `DiameterMismatch` | in Expand, \|D_table − D_volume\| > `diameter_mismatch_mm` for ≥ `diameter_mismatch_ms` | `diameter_mismatch_ms` + 1 period [510 ms] | sensor period + read + bound + valve [577 ms] | Expand |
 //! | `ControlOverrun` | step more than [`CONTROL_OVERRUN_LIMIT_MS`] (30 ms) after the previous one, or time going backwards | the late step itself [0 ms] | valve [50 ms]; a loop that stops for good: the watchdog's reset, then the pull resistors | active |

@@ -110,7 +110,10 @@ impl SensorMonitor {
 }
 
 /// Pump stall: over each block of `stall_volume_ml` injected while
-/// expanding, the internal pressure must rise by `stall_min_rise_kpa`.
+/// expanding, the internal pressure must rise by `stall_min_rise_kpa`;
+/// over each block withdrawn while shrinking it must fall by as much,
+/// unless it is already within that of the pressure at rest (near the end
+/// of a shrink there is nothing left to fall).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StallMonitor {
     start: Option<(f32, f32)>,
@@ -137,6 +140,34 @@ impl StallMonitor {
         }
         // Written so that NaN counts as no response.
         let responded = pressure_kpa - p0 >= params.stall_min_rise_kpa;
+        if !responded {
+            return true;
+        }
+        self.start = Some((volume_ml, pressure_kpa));
+        false
+    }
+
+    /// The shrink's rule: true when a whole block was withdrawn while the
+    /// pressure neither fell by `stall_min_rise_kpa` nor came within that
+    /// of `rest_kpa` (the pressure at rest, taken at `Start`).
+    pub fn observe_withdrawal(
+        &mut self,
+        volume_ml: f32,
+        pressure_kpa: f32,
+        rest_kpa: f32,
+        params: &Params,
+    ) -> bool {
+        let Some((v0, p0)) = self.start else {
+            self.start = Some((volume_ml, pressure_kpa));
+            return false;
+        };
+        let block_done = v0 - volume_ml >= params.stall_volume_ml;
+        if !block_done {
+            return false;
+        }
+        // Written so that NaN counts as no response.
+        let responded = p0 - pressure_kpa >= params.stall_min_rise_kpa
+            || pressure_kpa - rest_kpa <= params.stall_min_rise_kpa;
         if !responded {
             return true;
         }
@@ -325,6 +356,23 @@ mod tests {
         assert!(!s.observe(1.0, 1.06, &p));
         assert!(!s.observe(1.99, 1.06, &p));
         assert!(s.observe(2.0, 1.1, &p));
+    }
+
+    #[test]
+    fn a_shrink_must_lower_the_pressure_until_rest() {
+        let p = Params::DEFAULT;
+        let mut s = StallMonitor::default();
+        s.reset(4.0, Some(3.0));
+        // Healthy: 1 mL out, the pressure fell 1 kPa.
+        assert!(!s.observe_withdrawal(3.01, 2.5, 0.2, &p));
+        assert!(!s.observe_withdrawal(3.0, 2.0, 0.2, &p));
+        // Stalled: 1 mL counted, the pressure stayed.
+        assert!(s.observe_withdrawal(2.0, 1.98, 0.2, &p));
+        // At rest there is nothing left to fall: no stall.
+        let mut s = StallMonitor::default();
+        s.reset(1.0, Some(0.24));
+        assert!(!s.observe_withdrawal(0.0, 0.24, 0.2, &p));
+        assert!(s.observe_withdrawal(-1.0, f32::NAN, 0.2, &p));
     }
 
     #[test]

@@ -54,6 +54,10 @@ pub const RECORDINGS: &[Recording] = &[
         bytes: include_bytes!("../replay/stalled_pump.bin"),
     },
     Recording {
+        name: "stalled_pump_shrink",
+        bytes: include_bytes!("../replay/stalled_pump_shrink.bin"),
+    },
+    Recording {
         name: "trapped_air",
         bytes: include_bytes!("../replay/trapped_air.bin"),
     },

@@ -21,7 +21,7 @@ use datafile::write_atomic;
 
 /// Scenarios recorded for QEMU, with their seeds: both normal runs (every
 /// step of 20 cycles) and every fault path.
-pub const REPLAY_SCENARIOS: [&str; 14] = super::scenario::NAMES;
+pub const REPLAY_SCENARIOS: [&str; 15] = super::scenario::NAMES;
 
 /// Folder of the recordings, relative to the repository root.
 pub const REPLAY_DIR: &str = "tests/qemu/replay";

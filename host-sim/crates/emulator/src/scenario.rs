@@ -168,7 +168,7 @@ pub struct Scenario {
 }
 
 /// Names of the built-in scenarios, in `--list` order.
-pub const NAMES: [&str; 14] = [
+pub const NAMES: [&str; 15] = [
     "normal_40mm",
     "normal_100mm",
     "blocked_line",
@@ -181,6 +181,7 @@ pub const NAMES: [&str; 14] = [
     "stuck_sda",
     "leak",
     "stalled_pump",
+    "stalled_pump_shrink",
     "trapped_air",
     "syringe_empty",
 ];
@@ -347,6 +348,26 @@ pub fn named(name: &str) -> Result<Scenario> {
             plant: plant(),
             injections: vec![Injection {
                 at: expand(1, 200),
+                fault: PlantFault::PumpStall,
+            }],
+            max_ms: 30_000,
+            tail_ms: 1_000,
+            expect: faults(Fault::PumpStall, Reference::Injection),
+        },
+        "stalled_pump_shrink" => Scenario {
+            name: name.into(),
+            summary: "the motor loses its steps 100 ms into the first shrink: the driver counts, \
+                      the plunger stays and the pressure does not fall"
+                .into(),
+            depth_mm: 40.0,
+            params: params(40.0, 5),
+            plant: plant(),
+            injections: vec![Injection {
+                at: Trigger::AfterEntering {
+                    state: State::Shrink,
+                    nth: 1,
+                    after_ms: 100,
+                },
                 fault: PlantFault::PumpStall,
             }],
             max_ms: 30_000,

@@ -277,6 +277,25 @@ fn a_held_sda_is_cleared_and_the_cycles_complete() {
 }
 
 #[test]
+fn a_pump_stalled_while_shrinking_is_caught() {
+    let (trace, o) = run_named("stalled_pump_shrink");
+    let latency = assert_fault(&o, Fault::PumpStall, 0);
+    // One block of 1 mL at the 4 mL/s shrink rate takes 250 ms: never
+    // faster than that.
+    assert!(latency >= 250, "{latency}");
+    let at = trace
+        .steps
+        .iter()
+        .find(|s| s.outputs.state == State::Fault)
+        .unwrap();
+    assert!(trace
+        .steps
+        .iter()
+        .any(|s| s.outputs.state == State::Shrink && s.inputs.now_ms < at.inputs.now_ms));
+    assert_safe_after_fault(&trace);
+}
+
+#[test]
 fn frozen_sensor_is_caught_while_the_pump_runs() {
     let (trace, o) = run_named("frozen_sensor");
     assert_fault(&o, Fault::SensorFrozen, 0);
