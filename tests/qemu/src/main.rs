@@ -28,8 +28,47 @@ mod qemu {
     static PASSED: AtomicU32 = AtomicU32::new(0);
     static FAILED: AtomicU32 = AtomicU32::new(0);
 
+    /// The pattern the free stack is painted with.
+    const PAINT: u32 = 0xC0FF_EE55;
+
+    extern "C" {
+        /// End of the static RAM (cortex-m-rt): the stack may grow down to
+        /// here.
+        static __sheap: u32;
+        /// Top of the stack (cortex-m-rt).
+        static _stack_start: u32;
+    }
+
+    /// Paints the free stack below the current stack pointer (less a
+    /// margin for this function's own frame).
+    fn paint_stack() {
+        let bottom = core::ptr::addr_of!(__sheap) as usize;
+        let sp = cortex_m::register::msp::read() as usize - 64;
+        let mut p = bottom;
+        while p < sp {
+            // SAFETY: between the end of the statics and the live stack:
+            // memory nothing uses yet.
+            unsafe { core::ptr::write_volatile(p as *mut u32, PAINT) };
+            p += 4;
+        }
+    }
+
+    /// Deepest the stack reached (bytes from its top): the first word from
+    /// the bottom that is no longer paint.
+    fn stack_high_water_bytes() -> usize {
+        let bottom = core::ptr::addr_of!(__sheap) as usize;
+        let top = core::ptr::addr_of!(_stack_start) as usize;
+        let mut p = bottom;
+        // SAFETY: reads of the same free region.
+        while p < top && unsafe { core::ptr::read_volatile(p as *const u32) } == PAINT {
+            p += 4;
+        }
+        top - p
+    }
+
     #[entry]
     fn main() -> ! {
+        paint_stack();
         for scenario in SCENARIOS {
             // Printed first so a panicking scenario is named on its line.
             hprint!("{} ... ", scenario.name);
@@ -44,6 +83,10 @@ mod qemu {
                 }
             }
         }
+        // The self-tests build their tables on the stack; the replays run
+        // only the controller and the decoder: measured apart.
+        let scenarios_bytes = stack_high_water_bytes();
+        paint_stack();
         for recording in RECORDINGS {
             hprint!("replay {} ... ", recording.name);
             match replay::check(recording.bytes, TABLE) {
@@ -61,6 +104,11 @@ mod qemu {
                 }
             }
         }
+        hprintln!(
+            "stack high-water mark (painted stack, read back): self-tests {} bytes, replays {} bytes",
+            scenarios_bytes,
+            stack_high_water_bytes()
+        );
         finish()
     }
 
