@@ -84,8 +84,7 @@ pub trait BusRecovery {
     fn recover_bus(&mut self) -> Result<(), BusClearError>;
 }
 
-/// Longest one read (two conversions and the bus traffic) takes (µs): a
-/// retry is made only when this much of the period is left.
+/// Longest one read (two conversions and the bus traffic) takes (µs).
 pub const READ_MAX_US: u32 = 2 * OSR.max_conversion_us() + 1_600;
 
 // The end-to-end bounds count on a read within the board's stated time.
@@ -99,9 +98,10 @@ const _: () = assert!(READ_MAX_US <= crate::controller::BOARD_TIMING.sensor_read
 /// Until the part answers at boot it publishes [`PressureSample::BusError`]
 /// after each failed attempt. After that a failed read (an error, or no
 /// result within [`READ_TIMEOUT_MS`]) is retried at once
-/// ([`RETRIES_PER_PERIOD`]) if it can end within one read time
-/// ([`READ_MAX_US`]) of the period's end, i.e. unless the failure was a
-/// timeout: one glitch costs no reading, at worst a reading 2.4 ms late. A period with no reading follows [`SensorHealth`]: the last
+/// ([`RETRIES_PER_PERIOD`]) unless it timed out or the period is over: a
+/// retry then ends within one read time ([`READ_MAX_US`]) of the period's
+/// end, so one glitch costs no reading, at worst one 2.4 ms late. A period
+/// with no reading follows [`SensorHealth`]: the last
 /// good reading stays published (ageing), the bus is recovered
 /// ([`BusRecovery`]) and the part re-initialised (a brown-out loses the
 /// PROM image and leaves ADC READ returning 0), and
@@ -169,8 +169,7 @@ pub async fn run<I2C: I2c + BusRecovery, F: NorFlash>(
         let mut reading = None;
         for attempt in 0..=RETRIES_PER_PERIOD {
             // A retry after a failure late in a read may end up to a read's
-            // time past the period (the ticker then catches up at once);
-            // after a timeout there is no time left for one.
+            // time past the period (the ticker then catches up at once).
             if attempt > 0 && Instant::now() > period_end {
                 break;
             }
@@ -179,7 +178,15 @@ pub async fn run<I2C: I2c + BusRecovery, F: NorFlash>(
                     reading = Some(m);
                     break;
                 }
-                Err(_) => log_warn!("sensor: read failed (attempt {})", attempt + 1),
+                // A bus that does not answer within a read's time is not
+                // retried: the recovery is what may free it.
+                Err(SensorFailure::Timeout) => {
+                    log_warn!("sensor: read timed out");
+                    break;
+                }
+                Err(SensorFailure::Driver(_)) => {
+                    log_warn!("sensor: read failed (attempt {})", attempt + 1)
+                }
             }
         }
         match reading {
