@@ -95,7 +95,13 @@ fn board_cli_against_the_virtual_board() {
     let vb = VirtualBoard::start(&[]);
 
     let info = ok(&vb.board(&["info"]));
-    assert!(info.contains("protocol: 2"), "{info}");
+    assert!(
+        info.contains(&format!(
+            "protocol: {}",
+            urechis::protocol::PROTOCOL_VERSION
+        )),
+        "{info}"
+    );
     assert!(info.contains(&format!(
         "CRC {:#010x}, compiled in",
         urechis::table::generated::TABLE.checksum
