@@ -135,6 +135,9 @@ pub struct LawFit {
     pub modes: Vec<ModeFit>,
     /// Starts tried (nonlinear laws; 1 for a linear one).
     pub starts: usize,
+    /// Coefficients that ended on a bound of the nonlinear fit (the data
+    /// would take them further: a sign of too many coefficients).
+    pub at_bound: Vec<&'static str>,
     /// Drucker stability inside and beyond the data.
     pub stability: Stability,
 }
@@ -330,6 +333,7 @@ pub fn fit_law(spec: &'static LawSpec, tests: &[CouponTest]) -> Result<LawFit, F
         law: spec.name,
         params: p,
     };
+    let mut at_bound = Vec::new();
     let (params, errors, starts) = match spec.form {
         Form::Linear => {
             let all: Vec<usize> = (0..p).collect();
@@ -380,6 +384,14 @@ pub fn fit_law(spec: &'static LawSpec, tests: &[CouponTest]) -> Result<LawFit, F
             }
             let best = best.ok_or(FitError::NoStart { law: spec.name })?;
             let errors = lm::standard_errors(&best.jacobian, best.rss);
+            at_bound = best
+                .x
+                .iter()
+                .zip(bounds)
+                .zip(spec.parameter_names)
+                .filter(|((v, (lo, hi)), _)| *v <= lo || *v >= hi)
+                .map(|(_, n)| *n)
+                .collect();
             (best.x, errors, starts.len())
         }
     };
@@ -410,6 +422,7 @@ pub fn fit_law(spec: &'static LawSpec, tests: &[CouponTest]) -> Result<LawFit, F
         points: n,
         modes,
         starts,
+        at_bound,
         stability,
     })
 }

@@ -6,11 +6,12 @@
 //! stretches the squares c_a = λa² are the roots of
 //! p(z) = z³ − I1·z² + I2·z − 1, and with h(z) = Σp (μp/2)·z^(αp/2):
 //!
-//! - W1 = ∂W/∂I1 = (z·h)[c1, c2, c3] and W2 = ∂W/∂I2 = −h[c1, c2, c3]
+//! - W1 = ∂W/∂I1 = (z·h)\[c1, c2, c3\] and W2 = ∂W/∂I2 = −h\[c1, c2, c3\]
 //!   (second divided differences: the quadratic that interpolates z·h at
 //!   the roots gives the stress t_a = 2·W1·c_a − 2·W2/c_a + const);
 //! - the second derivatives are the same divided differences with every
-//!   node doubled: W11 = (z³h)[c1c1c2c2c3c3], W12 = −(z²h)[…], W22 = (z·h)[…].
+//!   node doubled: W11 = (z³h)\[c1 c1 c2 c2 c3 c3\], W12 = −(z²h)\[…\],
+//!   W22 = (z·h)\[…\].
 //!
 //! A divided difference over the roots of p is the contour integral
 //! (1/2πi)∮ f(z)/p(z) dz (1/p² for doubled nodes), taken here in
@@ -204,18 +205,19 @@ impl Ogden {
         &self.terms
     }
 
-    /// (1/2πi)∮ z^k·h(z)/p(z)^m dz over the roots of p (m = 1 or 2), in
-    /// s = ln z on an ellipse enclosing them.
-    fn contour(&self, i1: f64, i2: f64, k: i32, m: i32) -> f64 {
+    /// (1/2πi)∮ F(s) ds around every ln c_a, for F given at (s, z = e^s,
+    /// p(z)): the trapezoid rule on an ellipse in s = ln z.
+    fn contour(i1: f64, i2: f64, f: impl Fn(Complex, Complex, Complex) -> Complex) -> f64 {
         // Real positive roots lie in [1/I2, I1] (all c_a > 0, Σc = I1,
-        // Σ1/c = I2 when Πc = 1); a margin keeps the poles off the path.
+        // Σ1/c = I2 when Πc = 1); a margin of 1 keeps the poles off the path.
         let (lo, hi) = (-i2.max(1.0).ln(), i1.max(1.0).ln());
         let centre = 0.5 * (lo + hi);
         let a = 0.5 * (hi - lo) + 1.0;
         // Semi-minor axis: well clear of the pole copies at ln c ± 2πi.
         let b = 1.5_f64.min(a);
+        // Trapezoid error ~ e^(−N·ξ0), ξ0 the ellipse's elliptic radius:
+        // 40/ξ0 nodes give near rounding.
         let xi0 = (b / a).atanh();
-        // Trapezoid error ~ e^(−N·ξ0): 40/ξ0 nodes give near rounding.
         let n = ((40.0 / xi0).ceil() as usize).clamp(48, 2048);
         let mut acc = 0.0;
         for j in 0..n {
@@ -224,49 +226,39 @@ impl Ogden {
             let s = Complex::new(centre + a * cos, b * sin);
             let ds = Complex::new(-a * sin, b * cos);
             let z = s.exp();
-            let mut hz = Complex::new(0.0, 0.0);
-            for t in &self.terms {
-                hz = hz + (s * (0.5 * t.alpha)).exp() * (0.5 * t.mu_kpa);
-            }
             let p = ((z - i1) * z + i2) * z - 1.0;
-            let mut pm = p;
-            for _ in 1..m {
-                pm = pm * p;
-            }
-            // dz = z·ds; z^k·h/p^m·z.
-            let f = (s * f64::from(k + 1)).exp() * hz / pm * ds;
-            // (1/2πi)·Σ f·Δθ = Im-free part: Re(f / i)/N·… handled below.
-            acc += f.im;
+            // (1/2πi)·(2π/N)·Σ F·s′: the real part is Im(F·s′)/N (the
+            // imaginary part cancels by symmetry).
+            acc += (f(s, z, p) * ds).im;
         }
-        // (1/2πi)∮ F ds ≈ (1/2πi)·(2π/N)·Σ F·s' = (1/N)·Σ (F·s')/i, whose
-        // real part is Im(F·s')/N; the imaginary part cancels by symmetry.
         acc / n as f64
+    }
+
+    /// z^(αp/2)-weighted sum Σp w(t)·z^(αp/2) at s = ln z.
+    fn powers(&self, s: Complex, w: impl Fn(&OgdenTerm) -> f64) -> Complex {
+        self.terms.iter().fold(Complex::new(0.0, 0.0), |acc, t| {
+            acc + (s * (0.5 * t.alpha)).exp() * w(t)
+        })
+    }
+
+    /// (1/2πi)∮ z^k·h(z)/p(z)^m dz (m = 1 or 2): a divided difference of
+    /// z^k·h over the roots (each doubled when m = 2).
+    fn divided(&self, i1: f64, i2: f64, k: i32, m: i32) -> f64 {
+        Self::contour(i1, i2, |s, _, p| {
+            let h = self.powers(s, |t| 0.5 * t.mu_kpa);
+            let pm = if m == 2 { p * p } else { p };
+            // dz = z·ds.
+            (s * f64::from(k + 1)).exp() * h / pm
+        })
     }
 
     /// Σa φ(c_a) with φ(z) = Σp μp/αp·z^(αp/2): (1/2πi)∮ φ·p′/p dz.
     fn trace_energy(&self, i1: f64, i2: f64) -> f64 {
-        let (lo, hi) = (-i2.max(1.0).ln(), i1.max(1.0).ln());
-        let centre = 0.5 * (lo + hi);
-        let a = 0.5 * (hi - lo) + 1.0;
-        let b = 1.5_f64.min(a);
-        let xi0 = (b / a).atanh();
-        let n = ((40.0 / xi0).ceil() as usize).clamp(48, 2048);
-        let mut acc = 0.0;
-        for j in 0..n {
-            let th = std::f64::consts::TAU * (j as f64 + 0.5) / n as f64;
-            let (sin, cos) = th.sin_cos();
-            let s = Complex::new(centre + a * cos, b * sin);
-            let ds = Complex::new(-a * sin, b * cos);
-            let z = s.exp();
-            let mut phi = Complex::new(0.0, 0.0);
-            for t in &self.terms {
-                phi = phi + (s * (0.5 * t.alpha)).exp() * (t.mu_kpa / t.alpha);
-            }
-            let p = ((z - i1) * z + i2) * z - 1.0;
+        Self::contour(i1, i2, |s, z, p| {
+            let phi = self.powers(s, |t| t.mu_kpa / t.alpha);
             let dp = (z * 3.0 - 2.0 * i1) * z + i2;
-            acc += (phi * dp / p * z * ds).im;
-        }
-        acc / n as f64
+            phi * dp / p * z
+        })
     }
 }
 
@@ -289,19 +281,19 @@ impl StrainEnergy for Ogden {
         self.trace_energy(i1, i2) - rest
     }
     fn dw_di1_kpa(&self, i1: f64, i2: f64) -> f64 {
-        self.contour(i1, i2, 1, 1)
+        self.divided(i1, i2, 1, 1)
     }
     fn dw_di2_kpa(&self, i1: f64, i2: f64) -> f64 {
-        -self.contour(i1, i2, 0, 1)
+        -self.divided(i1, i2, 0, 1)
     }
     fn d2w_di1_di1_kpa(&self, i1: f64, i2: f64) -> f64 {
-        self.contour(i1, i2, 3, 2)
+        self.divided(i1, i2, 3, 2)
     }
     fn d2w_di1_di2_kpa(&self, i1: f64, i2: f64) -> f64 {
-        -self.contour(i1, i2, 2, 2)
+        -self.divided(i1, i2, 2, 2)
     }
     fn d2w_di2_di2_kpa(&self, i1: f64, i2: f64) -> f64 {
-        self.contour(i1, i2, 1, 2)
+        self.divided(i1, i2, 1, 2)
     }
 
     fn shear_modulus_kpa(&self) -> f64 {

@@ -190,8 +190,13 @@ impl FitSkinReport {
         let names = |m: &[Mode]| m.iter().map(|m| m.name()).collect::<Vec<_>>().join(" + ");
         let _ = writeln!(
             out,
-            "fitted on nominal stress, {} jointly{}",
+            "fitted on nominal stress, {}{}{}",
             names(&self.fit_modes),
+            if self.fit_modes.len() > 1 {
+                " jointly"
+            } else {
+                ""
+            },
             if self.predicted_modes.is_empty() {
                 String::new()
             } else {
@@ -236,6 +241,9 @@ impl FitSkinReport {
                 None => {
                     let _ = write!(stab, "; compression ok to λ={SCAN_MIN_STRETCH}");
                 }
+            }
+            if !f.at_bound.is_empty() {
+                let _ = write!(stab, "; at a bound: {}", f.at_bound.join(", "));
             }
             let _ = writeln!(
                 out,
