@@ -305,9 +305,9 @@ pub struct InflationReport {
     /// Samples with D ≥ D0 in them.
     pub samples: usize,
     /// The rest geometry of the zone's tube.
-    pub outer_diameter_mm: f64,
-    /// Wall thickness at rest (mm).
-    pub wall_thickness_mm: f64,
+    pub geometry: TubeGeometry,
+    /// What the folder's reading or the fit found doubtful.
+    pub warnings: Vec<String>,
     /// The bins fitted.
     pub bins: Vec<InflationPoint>,
     /// The fit.
@@ -323,6 +323,9 @@ impl InflationReport {
     pub fn table(&self) -> String {
         use std::fmt::Write as _;
         let mut out = String::new();
+        for w in &self.warnings {
+            let _ = writeln!(out, "warning: {w}");
+        }
         let f = &self.fit;
         let _ = writeln!(
             out,

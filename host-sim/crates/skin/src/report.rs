@@ -354,7 +354,7 @@ pub fn write_report(
     let mut json = serde_json::to_string_pretty(&report).context("serialising the fit")?;
     json.push('\n');
     write_atomic(&json_path, json.as_bytes())?;
-    let svg = super::plot::render_svg(tests, &report.fits)?;
+    let svg = super::plot::render_svg(tests, &report.fits, report.inflation.as_ref())?;
     write_atomic(&svg_path, svg.as_bytes())?;
     Ok(FitSkinOutput {
         report,

@@ -32,6 +32,9 @@ pub struct FreeInflation {
     pub samples: Vec<InflationPoint>,
     /// What reading the folder found odd but accepted.
     pub warnings: Vec<String>,
+    /// What the fit should say with its result (a pressure that is not
+    /// the skin's alone).
+    pub fit_warnings: Vec<String>,
 }
 
 impl FreeInflation {
@@ -70,7 +73,15 @@ impl FreeInflation {
                 pressure_kpa: s.pressure_kpa,
             })
             .collect();
+        let mut fit_warnings = Vec::new();
+        if exp.rig.measurement.pressure_source == rig::PressureSource::PistonForce {
+            fit_warnings.push(format!(
+                "{}/rig.toml: pressure_source = \"piston_force\": the piston's friction is read as skin stiffness by the inflation fit",
+                dir.display()
+            ));
+        }
         Ok(FreeInflation {
+            fit_warnings,
             folder: dir.to_path_buf(),
             runs: free.iter().map(|r| r.id.clone()).collect(),
             geometry: a.tube(),
@@ -106,8 +117,8 @@ impl FreeInflation {
             folder: self.folder.clone(),
             runs: self.runs.clone(),
             samples,
-            outer_diameter_mm: d0,
-            wall_thickness_mm: self.geometry.wall_thickness_mm,
+            geometry: self.geometry,
+            warnings: self.fit_warnings.clone(),
             bins,
             fit,
             coupon,

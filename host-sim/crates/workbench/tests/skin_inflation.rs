@@ -95,6 +95,7 @@ fn folder() -> (tempfile::TempDir, FreeInflation) {
 fn the_same_family_comes_back_within_its_standard_errors() {
     let (_dir, free) = folder();
     assert_eq!(free.runs, ["free_a", "free_b"]);
+    assert!(free.fit_warnings.is_empty());
     let r = free.fit(&Gent::SPEC, None).unwrap();
     let f = &r.fit;
     println!("{}", r.table());
@@ -190,6 +191,19 @@ fn a_coupon_fit_of_the_same_skin_agrees_with_the_inflation_fit() {
         assert!(!m.fitted && m.r_squared > 0.99, "{m:?}");
     }
     assert!((c.shear_modulus_ratio - 1.0).abs() < 0.05, "{c:?}");
+    // What fit-skin writes: the coupon panels and the inflation's.
+    let mut report = skin::report::FitSkinReport::from_tests(&coupons, None).unwrap();
+    report.inflation = Some(r);
+    let out = tempfile::tempdir().unwrap();
+    let done = skin::report::write_report(report, &coupons, "both", out.path()).unwrap();
+    let svg = std::fs::read_to_string(&done.svg_path).unwrap();
+    assert!(svg.contains("free inflation (depth 0)") && svg.contains("equibiaxial (fitted)"));
+    assert!(svg.contains("inflation Yeoh (R²") && svg.contains("coupon Yeoh (tube)"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&done.json_path).unwrap()).unwrap();
+    assert_eq!(json["inflation"]["fit"]["law"], "Yeoh");
+    assert_eq!(json["inflation"]["bins"].as_array().unwrap().len(), 40);
+    assert!(done.report.table().contains("free inflation"));
 }
 
 #[test]
@@ -235,4 +249,20 @@ fn beyond_the_inflations_states_its_fit_is_an_extrapolation() {
         m.r_squared
     );
     assert!(m.r_squared < 0.95, "{m:?}");
+}
+
+#[test]
+fn a_piston_force_pressure_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    write_folder(dir.path());
+    let rig = dir.path().join("rig.toml");
+    let text = std::fs::read_to_string(&rig).unwrap();
+    std::fs::write(&rig, text.replace("line_sensor", "piston_force")).unwrap();
+    let free = FreeInflation::read(dir.path()).unwrap();
+    assert_eq!(free.fit_warnings.len(), 1);
+    assert!(
+        free.fit_warnings[0].contains("rig.toml: pressure_source = \"piston_force\""),
+        "{:?}",
+        free.fit_warnings
+    );
 }
