@@ -64,6 +64,18 @@ pub enum Command {
     /// as percent 0), pe.svg and summary.json; with --peer-avg, LAMMPS'
     /// averages of the same problem beside ours in comparison.csv.
     Cavity(CavityArgs),
+    /// Gather the parts of an ensemble run split with --shard I/N (simulate
+    /// --seeds, balloon, solver-sand) into one folder and aggregate them:
+    /// the same result files, bit for bit, as the run on one machine
+    /// (only the timing files differ).
+    Merge {
+        /// Folder for the merged results (new, or empty).
+        #[arg(long)]
+        out: PathBuf,
+        /// The parts' folders (each holding shard.json), every part once.
+        #[arg(required = true, num_args = 1..)]
+        parts: Vec<PathBuf>,
+    },
     /// Benchmarks (`bench dem`: the DEM throughput problem of shared/bench).
     Bench {
         /// Which benchmark.
@@ -335,7 +347,12 @@ pub struct SimulateArgs {
     seeds: u64,
     /// Folder for the results; default out/simulate-hDEPTH.
     #[arg(long)]
-    out: Option<PathBuf>,
+    pub out: Option<PathBuf>,
+    /// Run only part I of N of the seeds, into this part's own folder;
+    /// `host-sim merge` gathers the parts (a Slurm job array: --shard
+    /// $SLURM_ARRAY_TASK_ID/N with --array=1-N).
+    #[arg(long)]
+    pub shard: Option<shard::Shard>,
     /// Shorter settling and expansion (about half the steps).
     #[arg(long)]
     quick: bool,
@@ -489,6 +506,11 @@ pub struct BalloonArgs {
     /// Folder for the results.
     #[arg(long, default_value = "out/balloon")]
     pub out: PathBuf,
+    /// Run only part I of N of the cases (seeds × depths), into this
+    /// part's own folder; `host-sim merge` gathers the parts (a Slurm job
+    /// array: --shard $SLURM_ARRAY_TASK_ID/N with --array=1-N).
+    #[arg(long)]
+    pub shard: Option<shard::Shard>,
 }
 
 /// `host-sim cavity` arguments.
@@ -537,6 +559,11 @@ pub struct SolverSandArgs {
     /// ensemble.csv/.txt/.svg).
     #[arg(long = "runs-out")]
     pub runs_out: Option<PathBuf>,
+    /// Run only part I of N of the cases (depths × seeds) into --runs-out
+    /// (needed), without the data file; `host-sim merge` gathers the parts
+    /// and writes it into the merged folder.
+    #[arg(long, requires = "runs_out")]
+    pub shard: Option<shard::Shard>,
 }
 
 /// What `host-sim bench` measures.

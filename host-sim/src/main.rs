@@ -8,18 +8,22 @@ mod board;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
+use burrow::cases::{Part, Runner};
 use clap::Parser;
 
 use args::{BenchCommand, Cli, Command};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // The command line as given: a shard's manifest keeps it, so that the
+    // merge can run the same command over the parts' records.
+    let argv: Vec<String> = std::env::args().skip(1).collect();
     // The commands run on a worker of rayon's pool, not on the main thread:
     // from outside the pool every parallel loop is handed over and waited
     // on across threads (a futex wake and sleep each way), which was an
     // eighth of a simulation's time at a few parallel loops per DEM step.
-    match rayon::scope(|_| run(cli)) {
+    match rayon::scope(|_| run(cli, argv)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
@@ -28,14 +32,25 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(cli: Cli) -> Result<()> {
+fn run(cli: Cli, argv: Vec<String>) -> Result<()> {
     match cli.command {
         Command::Demo { out } => demo(&out),
         Command::Tables(a) => tables(a.settings()),
         Command::FitSkin(a) => fit_skin(&a),
-        Command::Simulate(a) => simulate(a.settings()),
-        Command::Balloon(a) => balloon(a),
-        Command::SolverSand(a) => solver_sand(a),
+        Command::Simulate(a) => {
+            let part = shard_part(a.shard);
+            simulate(a.settings(), part, part_command(&argv, &["--out"]))
+        }
+        Command::Balloon(a) => {
+            let part = shard_part(a.shard);
+            balloon(a, part, part_command(&argv, &["--out"]))
+        }
+        Command::Merge { out, parts } => merge(&out, &parts),
+        Command::SolverSand(a) => {
+            let part = shard_part(a.shard);
+            let command = part_command(&argv, &["--out", "--runs-out"]);
+            solver_sand(a, part, command)
+        }
         Command::Cavity(a) => cavity(a),
         Command::Bench {
             what:
@@ -157,18 +172,83 @@ fn fit_skin(a: &args::FitSkinArgs) -> Result<()> {
     Ok(())
 }
 
-fn simulate(settings: burrow::settings::SimulateSettings) -> Result<()> {
+/// The part of an ensemble a command line asks for.
+fn shard_part(shard: Option<burrow::cases::Shard>) -> Part {
+    shard.map_or(Part::Whole, Part::Shard)
+}
+
+/// The command line every part of an ensemble shares: `argv` without the
+/// part (`--shard`) and the options naming the part's own folder.
+fn part_command(argv: &[String], folders: &[&str]) -> Vec<String> {
+    let names: Vec<&str> = std::iter::once("--shard")
+        .chain(folders.iter().copied())
+        .collect();
+    shard::without_options(argv, &names)
+}
+
+/// After a command's cases: a shard says what it ran (and wrote its
+/// manifest), the others print the command's results.
+fn finish<T>(runner: &Runner, done: Option<T>, print: impl FnOnce(T)) -> Result<()> {
+    match (runner.finish()?, done) {
+        (Some(line), _) => println!("{line}"),
+        (None, Some(done)) => print(done),
+        (None, None) => anyhow::bail!("the command ran only some of its cases"),
+    }
+    Ok(())
+}
+
+fn simulate(
+    settings: burrow::settings::SimulateSettings,
+    part: Part,
+    argv: Vec<String>,
+) -> Result<()> {
     let plan = settings.plan()?;
     warn(&plan.warnings);
     note(&plan.notes);
     let out = plan.out().to_path_buf();
-    print!("{}", plan.run()?.text());
-    println!("wrote {}", out.display());
-    Ok(())
+    let runner = Runner::new(part, Some(&out), argv)?;
+    let done = plan.run_part(&runner)?;
+    finish(&runner, done, |outcome| {
+        print!("{}", outcome.text());
+        println!("wrote {}", out.display());
+    })
 }
 
-fn balloon(a: args::BalloonArgs) -> Result<()> {
-    use burrow::balloon::{run, BalloonOptions};
+/// `host-sim merge`: the parts gathered into `out`, then their command run
+/// over the records there.
+fn merge(out: &std::path::Path, parts: &[PathBuf]) -> Result<()> {
+    let command = shard::assemble(parts, out)?;
+    let cli = Cli::try_parse_from(std::iter::once("host-sim".to_string()).chain(command.clone()))
+        .map_err(|e| {
+        anyhow::anyhow!("merge: the parts' command `{}`: {e}", command.join(" "))
+    })?;
+    match cli.command {
+        Command::Simulate(mut a) => {
+            a.out = Some(out.to_path_buf());
+            simulate(a.settings(), Part::Merge, command)
+        }
+        Command::Balloon(mut a) => {
+            a.out = out.to_path_buf();
+            balloon(a, Part::Merge, command)
+        }
+        Command::SolverSand(mut a) => {
+            // The data file beside the runs, under the repository's name.
+            let name = std::path::Path::new(sand::solver::DATA_PATH)
+                .file_name()
+                .context("the solver data path has a file name")?;
+            a.runs_out = Some(out.to_path_buf());
+            a.out = Some(out.join(name));
+            solver_sand(a, Part::Merge, command)
+        }
+        _ => anyhow::bail!(
+            "merge: the parts ran `{}`, which is not a command that splits",
+            command.join(" ")
+        ),
+    }
+}
+
+fn balloon(a: args::BalloonArgs, part: Part, argv: Vec<String>) -> Result<()> {
+    use burrow::balloon::{run_part, BalloonOptions};
     let (rig, warnings) = burrow::settings::rig_setup(a.rig.as_deref(), a.final_diameter_mm)?;
     warn(&warnings);
     let opts = BalloonOptions {
@@ -187,9 +267,12 @@ fn balloon(a: args::BalloonArgs) -> Result<()> {
     if let Some(&h) = opts.depths_m.first() {
         note(&opts.spec(h)?.1);
     }
-    print!("{}", run(&opts)?.text());
-    println!("wrote {}", a.out.display());
-    Ok(())
+    let runner = Runner::new(part, Some(&a.out), argv)?;
+    let done = run_part(&opts, &runner)?;
+    finish(&runner, done, |run| {
+        print!("{}", run.text());
+        println!("wrote {}", a.out.display());
+    })
 }
 
 fn cavity(a: args::CavityArgs) -> Result<()> {
@@ -241,7 +324,7 @@ fn cavity(a: args::CavityArgs) -> Result<()> {
     Ok(())
 }
 
-fn solver_sand(a: args::SolverSandArgs) -> Result<()> {
+fn solver_sand(a: args::SolverSandArgs, part: Part, argv: Vec<String>) -> Result<()> {
     use burrow::solver_sand::{regenerate, RegenerateOptions};
     let out = a
         .out
@@ -257,7 +340,8 @@ fn solver_sand(a: args::SolverSandArgs) -> Result<()> {
         seeds,
         runs_out: a.runs_out,
     };
-    regenerate(&opts, &out, |run| {
+    let runner = Runner::new(part, opts.runs_out.as_deref(), argv)?;
+    let done = regenerate(&opts, &out, &runner, |run| {
         println!(
             "h = {} mm: final p_e (the sand's share of p_i) {:.3} ± {:.3} kPa over {seeds} seed(s) at D {:.2} mm, {} bins from D {:.2} mm, {} grains, wall {:.1} s",
             run.depth_mm,
@@ -270,8 +354,7 @@ fn solver_sand(a: args::SolverSandArgs) -> Result<()> {
             run.wall_s
         );
     })?;
-    println!("wrote {}", out.display());
-    Ok(())
+    finish(&runner, done, |_| println!("wrote {}", out.display()))
 }
 
 fn emulate(a: args::EmulateArgs) -> Result<()> {

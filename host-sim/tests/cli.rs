@@ -56,3 +56,39 @@ fn cli_telemetry_writes_a_readable_folder() {
         "{stderr}"
     );
 }
+
+#[test]
+fn cli_merge_refuses_parts_that_do_not_make_an_ensemble() {
+    let host_sim = || std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"));
+    let dir = tempfile::tempdir().unwrap();
+    // A part number beyond the count is refused when parsed.
+    let bad = host_sim()
+        .args(["balloon", "--shard", "3/2", "--out"])
+        .arg(dir.path().join("b"))
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(stderr.contains("between 1 and 2"), "{stderr}");
+    // solver-sand's parts need a folder for their runs.
+    let bad = host_sim()
+        .args(["solver-sand", "--shard", "1/2"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(stderr.contains("--runs-out"), "{stderr}");
+    // A folder that no part wrote.
+    let out = host_sim()
+        .args(["merge", "--out"])
+        .arg(dir.path().join("merged"))
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("shard.json") && stderr.contains("--shard I/N"),
+        "{stderr}"
+    );
+}

@@ -33,6 +33,7 @@ use plotters::prelude::*;
 
 use super::ensemble::Ensemble;
 use super::{output, FreeCurve, ScenarioSpec};
+use crate::cases::Runner;
 use crate::solver_sand::RigSetup;
 use sand::{BalloonPoint, BALLOON_FREE_PRESSURE_KPA, BALLOON_FREE_SD_KPA, BALLOON_TABLE};
 
@@ -154,6 +155,12 @@ pub struct BalloonRun {
 /// `out/hDEPTHmm` and the comparison (`balloon.csv`, `balloon.txt`,
 /// `balloon.svg`) under `out`.
 pub fn run(opts: &BalloonOptions) -> Result<BalloonRun> {
+    run_part(opts, &Runner::whole())?.context("a run on one machine has every case")
+}
+
+/// [`run`] as one part of the experiment split over machines
+/// ([`Runner`]): `None` where another part runs some of the beds.
+pub fn run_part(opts: &BalloonOptions, runner: &Runner) -> Result<Option<BalloonRun>> {
     let cases = opts
         .depths_m
         .iter()
@@ -165,19 +172,22 @@ pub fn run(opts: &BalloonOptions) -> Result<BalloonRun> {
         opts.free_pressure_pa,
         opts.out.as_deref(),
         opts.progress,
+        runner,
     )
 }
 
 /// [`run`] over prepared cases (one per depth, each
 /// [`ScenarioSpec::as_balloon`], all with the same skin and zone: the
-/// first case's is matched to `free_pressure_pa` (Pa) and given to all).
+/// first case's is matched to `free_pressure_pa` (Pa) and given to all);
+/// `None` where another part of a split run ([`Runner`]) runs some beds.
 pub fn run_cases(
     cases: &[ScenarioSpec],
     seeds: &[u64],
     free_pressure_pa: f64,
     out: Option<&Path>,
     progress: bool,
-) -> Result<BalloonRun> {
+    runner: &Runner,
+) -> Result<Option<BalloonRun>> {
     let first = cases
         .first()
         .context("the balloon experiment needs at least one depth")?;
@@ -207,10 +217,15 @@ pub fn run_cases(
             ..case.clone()
         };
         let dir = out.map(|d| depth_dir(d, spec.depth_m));
-        let ensemble = Ensemble::run_with(&spec, &free, seeds, dir.as_deref(), progress)
+        let ensemble = Ensemble::run_with(&spec, &free, seeds, dir.as_deref(), progress, runner)
             .with_context(|| format!("the balloon at h = {:.0} mm", spec.depth_m * 1e3))?;
-        rows.push(row(&ensemble, &spec));
-        ensembles.push(ensemble);
+        if let Some(ensemble) = ensemble {
+            rows.push(row(&ensemble, &spec));
+            ensembles.push(ensemble);
+        }
+    }
+    if ensembles.len() < cases.len() {
+        return Ok(None);
     }
     let result = BalloonRun {
         skin_stiffness_scale: scale,
@@ -224,7 +239,7 @@ pub fn run_cases(
         output::write_text(dir, "balloon.txt", result.text().as_bytes())?;
         output::write_text(dir, "balloon.svg", result.plot_svg()?.as_bytes())?;
     }
-    Ok(result)
+    Ok(Some(result))
 }
 
 /// The depth's row from its beds.

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{ensure, Context, Result};
 
-use super::{output, simulate_with, FreeCurve, Options, Report, ScenarioSpec};
+use super::{output, FreeCurve, Options, Report, ScenarioSpec};
+use crate::cases::Runner;
 use crate::stats::mean_sd;
 
 /// One reported quantity over the ensemble's runs.
@@ -46,7 +47,7 @@ pub struct Ensemble {
 type Reader = fn(&Report) -> f64;
 
 /// The reported numbers: name (with its unit) and how to read it.
-const METRICS: [(&str, Reader); 15] = [
+const METRICS: [(&str, Reader); 14] = [
     ("settled_p_e_kpa", |r| r.settled.sand_pressure_pa * 1e-3),
     ("settled_p_h_kpa", |r| r.settled.face_pressure_pa * 1e-3),
     ("initial_p_h_kpa", |r| r.initial_face_pressure_pa() * 1e-3),
@@ -91,7 +92,6 @@ const METRICS: [(&str, Reader); 15] = [
     ("final_max_caliper_mm", |r| {
         r.last().map_or(f64::NAN, |s| s.calipers_m.1 * 1e3)
     }),
-    ("wall_s", |r| r.wall_s),
 ];
 
 impl Ensemble {
@@ -104,22 +104,38 @@ impl Ensemble {
         out: Option<&Path>,
         progress: bool,
     ) -> Result<Ensemble> {
-        ensure!(!seeds.is_empty(), "an ensemble needs at least one seed");
-        // The seed moves grains only: one free-skin curve serves every run.
-        Self::run_with(spec, &FreeCurve::of(spec)?, seeds, out, progress)
+        Self::run_part(spec, seeds, out, progress, &Runner::whole())?
+            .context("a run on one machine has every case")
     }
 
-    /// [`Ensemble::run`] with the zone's free curve `free` already computed
-    /// (it depends on the skin only, so one serves every depth too).
+    /// [`Ensemble::run`] as one part of a command split over machines
+    /// ([`Runner`]): `None` where another part runs some of the seeds.
+    pub fn run_part(
+        spec: &ScenarioSpec,
+        seeds: &[u64],
+        out: Option<&Path>,
+        progress: bool,
+        runner: &Runner,
+    ) -> Result<Option<Ensemble>> {
+        ensure!(!seeds.is_empty(), "an ensemble needs at least one seed");
+        // The seed moves grains only: one free-skin curve serves every run.
+        Self::run_with(spec, &FreeCurve::of(spec)?, seeds, out, progress, runner)
+    }
+
+    /// [`Ensemble::run_part`] with the zone's free curve `free` already
+    /// computed (it depends on the skin only, so one serves every depth
+    /// too).
     pub fn run_with(
         spec: &ScenarioSpec,
         free: &FreeCurve,
         seeds: &[u64],
         out: Option<&Path>,
         progress: bool,
-    ) -> Result<Ensemble> {
+        runner: &Runner,
+    ) -> Result<Option<Ensemble>> {
         ensure!(!seeds.is_empty(), "an ensemble needs at least one seed");
         let mut reports = Vec::with_capacity(seeds.len());
+        let mut complete = true;
         for &seed in seeds {
             let opts = Options {
                 spec: ScenarioSpec {
@@ -129,14 +145,22 @@ impl Ensemble {
                 out: out.map(|d| Self::run_dir(d, seed)),
                 progress,
             };
-            let report =
-                simulate_with(&opts, free.clone(), 0.0).with_context(|| format!("seed {seed}"))?;
-            reports.push(report);
+            match runner
+                .run(&opts, free)
+                .with_context(|| format!("seed {seed}"))?
+            {
+                Some(report) => reports.push(report),
+                None => complete = false,
+            }
+        }
+        if !complete {
+            return Ok(None);
         }
         let ensemble = Ensemble { reports };
         if let Some(dir) = out {
             output::write_text(dir, "ensemble.csv", &ensemble.csv()?)?;
             output::write_text(dir, "ensemble.txt", ensemble.text().as_bytes())?;
+            output::write_text(dir, "timing.csv", &ensemble.timing_csv()?)?;
             let title = format!(
                 "h = {:.0} mm, {} seeds: mean ± SD over the runs",
                 spec.depth_m * 1e3,
@@ -145,7 +169,7 @@ impl Ensemble {
             let svg = output::ensemble_plot_svg(&ensemble.reports, &title)?;
             output::write_text(dir, "ensemble.svg", svg.as_bytes())?;
         }
-        Ok(ensemble)
+        Ok(Some(ensemble))
     }
 
     /// Each reported number over the runs.
@@ -180,6 +204,37 @@ impl Ensemble {
             w.write_record(&row)?;
         }
         w.into_inner().context("writing the ensemble table")
+    }
+
+    /// Each run's wall time and its phases (s), one row per seed: apart
+    /// from the results ([`Ensemble::csv`]), which a run repeated
+    /// elsewhere reproduces bit for bit, while its times differ.
+    pub fn timing_csv(&self) -> Result<Vec<u8>> {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.write_record([
+            "seed",
+            "wall_s",
+            "free_curve_s",
+            "settling_s",
+            "advance_s",
+            "expansion_s",
+        ])?;
+        for r in &self.reports {
+            let p = r.phases;
+            w.write_record(
+                std::iter::once(r.spec.seed.to_string()).chain(
+                    [
+                        r.wall_s,
+                        p.free_curve_s,
+                        p.settling_s,
+                        p.advance_s,
+                        p.expansion_s,
+                    ]
+                    .map(|t| format!("{t:.3}")),
+                ),
+            )?;
+        }
+        w.into_inner().context("writing the ensemble's timing")
     }
 
     /// A plain-text summary: mean ± SD of each number.

@@ -14,6 +14,7 @@
 //! `host-sim/crates/burrow/README.md`.
 
 pub mod balloon;
+pub mod cases;
 pub mod coupling;
 pub mod ensemble;
 pub mod free_skin;
@@ -30,6 +31,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use datafile::write_atomic;
+use serde::{Deserialize, Serialize};
 
 use crate::coupling::Sample;
 pub use ensemble::Ensemble;
@@ -325,12 +327,7 @@ impl Report {
         }
         let _ = writeln!(
             s,
-            "wall time {:.1} s (free curve {:.1}, settling {:.1}, advance {:.1}, expansion {:.1}); skin steps per DEM step {:.2}",
-            self.wall_s,
-            self.phases.free_curve_s,
-            self.phases.settling_s,
-            self.phases.advance_s,
-            self.phases.expansion_s,
+            "skin steps per DEM step {:.2}",
             self.skin_steps_per_dem_step
         );
         if self.skin_added_mass > 0.0 {
@@ -341,6 +338,22 @@ impl Report {
             );
         }
         s
+    }
+}
+
+impl Report {
+    /// Where the run's wall time went: kept apart from [`Report::text`]
+    /// (and in its own file, [`cases::TIMING`]), since a run repeated elsewhere gives the same
+    /// results but not the same times.
+    pub fn timing_text(&self) -> String {
+        format!(
+            "wall time {:.1} s (free curve {:.1}, settling {:.1}, advance {:.1}, expansion {:.1})\n",
+            self.wall_s,
+            self.phases.free_curve_s,
+            self.phases.settling_s,
+            self.phases.advance_s,
+            self.phases.expansion_s,
+        )
     }
 }
 
@@ -388,7 +401,7 @@ pub struct Options {
 }
 
 /// Wall time of a run's phases (s), for finding where a case's time goes.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhaseTimes {
     /// The free skin's curve p_free(D) (0 when it was shared, as in an
     /// ensemble).

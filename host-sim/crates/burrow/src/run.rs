@@ -13,7 +13,7 @@ use dem::step;
 const SETTLE_DRAG_S: f64 = 0.02;
 
 /// The bed at the end of settling.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Settled {
     /// Force the grains put on the floor, upwards positive (N), averaged
     /// over the last quarter of settling (the skin rings, so single steps

@@ -7,9 +7,10 @@ use std::fmt::Write as _;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 
-use anyhow::{ensure, Result};
+use anyhow::{ensure, Context, Result};
 use rig::Rig;
 
+use crate::cases::{Part, Runner};
 use crate::ensemble::Ensemble;
 use crate::scenario::{self, HeadSupport, ScenarioSpec, SURCHARGE_ROWS};
 use crate::solver_sand::RigSetup;
@@ -202,21 +203,27 @@ impl SimulateSettings {
 impl Plan {
     /// Runs the case (with a progress bar), writing its results.
     pub fn run(self) -> Result<Outcome> {
-        if self.seeds > 1 {
+        self.run_part(&Runner::whole())?
+            .context("a run on one machine has every case")
+    }
+
+    /// [`Plan::run`] as one part of a split ensemble ([`Runner`]; every
+    /// split run is an ensemble, one seed or more): `None` where another
+    /// part runs some of the seeds.
+    pub fn run_part(self, runner: &Runner) -> Result<Option<Outcome>> {
+        if self.seeds > 1 || runner.part() != Part::Whole {
             let list: Vec<u64> =
                 (self.spec.seed..self.spec.seed.saturating_add(self.seeds)).collect();
-            Ok(Outcome::Ensemble(Ensemble::run(
-                &self.spec,
-                &list,
-                Some(&self.out),
-                true,
-            )?))
+            Ok(
+                Ensemble::run_part(&self.spec, &list, Some(&self.out), true, runner)?
+                    .map(Outcome::Ensemble),
+            )
         } else {
-            Ok(Outcome::Single(Box::new(simulate(&Options {
+            Ok(Some(Outcome::Single(Box::new(simulate(&Options {
                 spec: self.spec,
                 out: Some(self.out),
                 progress: true,
-            })?)))
+            })?))))
         }
     }
 
@@ -230,12 +237,13 @@ impl Outcome {
     /// The summary: each bed's, then the ensemble's.
     pub fn text(&self) -> String {
         match self {
-            Outcome::Single(report) => report.text(),
+            Outcome::Single(report) => report.text() + &report.timing_text(),
             Outcome::Ensemble(ensemble) => {
                 let mut s = String::new();
                 for r in &ensemble.reports {
                     let _ = writeln!(s, "seed {}:", r.spec.seed);
                     s.push_str(&r.text());
+                    s.push_str(&r.timing_text());
                 }
                 s.push_str(&ensemble.text());
                 s

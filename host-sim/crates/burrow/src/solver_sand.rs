@@ -17,7 +17,6 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use anyhow::{ensure, Context, Result};
 use serde::Serialize;
@@ -25,6 +24,7 @@ use serde::Serialize;
 use rig::Rig;
 use sand::solver::{SolverSand, COLUMNS, INITIAL_DIAMETER_KEY, UNIT_WEIGHT_KEY};
 
+use crate::cases::Runner;
 use crate::stats::mean_sd;
 pub use crate::stats::{bin_samples, bin_samples_indexed, Bin};
 use crate::{Ensemble, ScenarioSpec};
@@ -139,10 +139,14 @@ pub fn spec(depth_mm: f64, quick: bool) -> ScenarioSpec {
     }
 }
 
-/// Runs the solver at `depth_mm` for each seed (writing no files) and bins
-/// their pooled p_e.
-pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
-    let t0 = Instant::now();
+/// Runs the solver at `depth_mm` for each seed (writing no files but
+/// under `opts.runs_out`) and bins their pooled p_e; `None` where another
+/// part of a split run ([`Runner`]) runs some of the seeds.
+pub fn run_depth(
+    opts: &RegenerateOptions,
+    depth_mm: f64,
+    runner: &Runner,
+) -> Result<Option<DepthRun>> {
     let base = opts.spec(depth_mm)?;
     let final_mm = base.final_diameter_m * 1e3;
     let seeds = opts.seed_list(&base);
@@ -150,8 +154,11 @@ pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
         .runs_out
         .as_ref()
         .map(|d| d.join(format!("h{depth_mm}mm")));
-    let ensemble = Ensemble::run(&base, &seeds, dir.as_deref(), opts.progress)
-        .with_context(|| format!("solver runs at h = {depth_mm} mm"))?;
+    let Some(ensemble) = Ensemble::run_part(&base, &seeds, dir.as_deref(), opts.progress, runner)
+        .with_context(|| format!("solver runs at h = {depth_mm} mm"))?
+    else {
+        return Ok(None);
+    };
     let mut points: Vec<(f64, f64)> = Vec::new();
     let (mut settled_mm, mut grains) = (f64::INFINITY, 0);
     let mut finals = Vec::new();
@@ -172,7 +179,7 @@ pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
     }
     let mean_d = mean_sd(&finals.iter().map(|f| f.0).collect::<Vec<_>>()).0;
     let (mean_p, sd_p) = mean_sd(&finals.iter().map(|f| f.1).collect::<Vec<_>>());
-    Ok(DepthRun {
+    Ok(Some(DepthRun {
         depth_mm,
         settled_diameter_mm: settled_mm,
         final_diameter_mm: mean_d,
@@ -180,8 +187,8 @@ pub fn run_depth(opts: &RegenerateOptions, depth_mm: f64) -> Result<DepthRun> {
         final_p_e_sd_kpa: sd_p,
         grains,
         bins: bin_samples(&points, settled_mm, final_mm, BIN_WIDTH_MM),
-        wall_s: t0.elapsed().as_secs_f64(),
-    })
+        wall_s: ensemble.reports.iter().map(|r| r.wall_s).sum(),
+    }))
 }
 
 /// The data file's text for `runs` made with `opts`.
@@ -267,12 +274,14 @@ pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
 
 /// Runs every depth of `opts` in increasing order, calling `on_depth`
 /// after each, and writes the data file to `out` atomically, after
-/// checking that [`SolverSand`] reads it back.
+/// checking that [`SolverSand`] reads it back; `None` (and no file) where
+/// another part of a split run ([`Runner`]) runs some of the cases.
 pub fn regenerate(
     opts: &RegenerateOptions,
     out: &Path,
+    runner: &Runner,
     mut on_depth: impl FnMut(&DepthRun),
-) -> Result<Vec<DepthRun>> {
+) -> Result<Option<Vec<DepthRun>>> {
     let mut depths = opts.depths_mm.clone();
     ensure!(!depths.is_empty(), "no depths given");
     ensure!(
@@ -283,14 +292,18 @@ pub fn regenerate(
     depths.dedup();
     let mut runs = Vec::with_capacity(depths.len());
     for &h in &depths {
-        let run = run_depth(opts, h)?;
-        on_depth(&run);
-        runs.push(run);
+        if let Some(run) = run_depth(opts, h, runner)? {
+            on_depth(&run);
+            runs.push(run);
+        }
+    }
+    if runs.len() < depths.len() {
+        return Ok(None);
     }
     let text = csv_text(&runs, opts)?;
     SolverSand::parse(&text, &out.display().to_string())
         .context("the solver results do not make a valid data file")?;
     datafile::write_atomic(out, text.as_bytes())
         .with_context(|| format!("writing {}", out.display()))?;
-    Ok(runs)
+    Ok(Some(runs))
 }

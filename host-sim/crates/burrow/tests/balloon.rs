@@ -3,6 +3,7 @@
 //! tiny bed.
 
 use burrow::balloon::{run_cases, Row};
+use burrow::cases::{Part, Runner};
 use burrow::free_skin::MATCH_TOLERANCE;
 use burrow::{FreeCurve, HeadSupport, ScenarioSpec};
 use sand::{BALLOON_FREE_PRESSURE_KPA, BALLOON_TABLE};
@@ -116,7 +117,9 @@ fn the_whole_comparison_runs_on_a_tiny_bed() {
         2.0 * p0,
         Some(dir.path()),
         false,
+        &Runner::whole(),
     )
+    .unwrap()
     .unwrap();
     print!("{}", run.text());
     assert!((run.free_pressure_pa / (2.0 * p0) - 1.0).abs() <= MATCH_TOLERANCE);
@@ -142,7 +145,15 @@ fn the_whole_comparison_runs_on_a_tiny_bed() {
         final_diameter_m: 24e-3,
         ..case.clone()
     };
-    let err = run_cases(&[case, other], &[1], 2.0 * p0, None, false).unwrap_err();
+    let err = run_cases(
+        &[case, other],
+        &[1],
+        2.0 * p0,
+        None,
+        false,
+        &Runner::whole(),
+    )
+    .unwrap_err();
     assert!(format!("{err:#}").contains("share one skin"), "{err:#}");
 }
 
@@ -172,7 +183,16 @@ fn a_stiffer_skin_takes_a_larger_share_from_the_same_bed() {
         .pressure_pa(case.final_diameter_m)
         .unwrap();
     let share = |k: f64| {
-        let run = run_cases(std::slice::from_ref(&case), &[1], k * p0, None, false).unwrap();
+        let run = run_cases(
+            std::slice::from_ref(&case),
+            &[1],
+            k * p0,
+            None,
+            false,
+            &Runner::whole(),
+        )
+        .unwrap()
+        .unwrap();
         run.rows[0].sand_share_kpa.0
     };
     let (soft, stiff) = (share(1.0), share(4.0));
@@ -228,4 +248,109 @@ fn a_rig_sets_the_balloons_sand_and_the_papers_rig_keeps_the_measured_table() {
     };
     let err = with(sandless).spec(50e-3).unwrap_err();
     assert!(format!("{err:#}").contains("[sand]"), "{err:#}");
+}
+
+/// Every file under `dir`, relative, with its bytes.
+fn files(dir: &std::path::Path) -> std::collections::BTreeMap<std::path::PathBuf, Vec<u8>> {
+    let mut all = std::collections::BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p.strip_prefix(dir).unwrap().to_path_buf();
+                all.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    all
+}
+
+#[test]
+fn a_split_run_merges_to_the_same_bits_as_one_machine() {
+    // Two depths × two seeds, on one machine and as parts 1/3, 2/3, 3/3
+    // (one part with two cases, one with a case of each depth's).
+    let case = |h: f64| ScenarioSpec {
+        depth_m: h,
+        ..tiny_balloon()
+    };
+    let cases = [case(40e-3), case(50e-3)];
+    let p0 = FreeCurve::of(&cases[0])
+        .unwrap()
+        .pressure_pa(cases[0].final_diameter_m)
+        .unwrap();
+    let seeds = [1, 2];
+    let tmp = tempfile::tempdir().unwrap();
+    let whole = tmp.path().join("whole");
+    let one = run_cases(
+        &cases,
+        &seeds,
+        2.0 * p0,
+        Some(&whole),
+        false,
+        &Runner::whole(),
+    )
+    .unwrap()
+    .unwrap();
+    let command: Vec<String> = ["balloon", "--seeds", "2"].map(String::from).to_vec();
+    let mut parts = Vec::new();
+    for i in 1..=3 {
+        let dir = tmp.path().join(format!("part-{i}"));
+        let runner = Runner::new(
+            Part::Shard(shard::Shard::new(i, 3).unwrap()),
+            Some(&dir),
+            command.clone(),
+        )
+        .unwrap();
+        let partial = run_cases(&cases, &seeds, 2.0 * p0, Some(&dir), false, &runner).unwrap();
+        assert!(partial.is_none(), "part {i} has only some of the cases");
+        assert!(runner
+            .finish()
+            .unwrap()
+            .unwrap()
+            .contains("of the command's 4 cases"));
+        parts.push(dir);
+    }
+    // Part 1 holds cases 0 and 3: seed 1 at 40 mm, seed 2 at 50 mm.
+    let m = shard::Manifest::read(&parts[0]).unwrap();
+    assert_eq!(
+        m.cases,
+        ["h40mm/seed-1", "h50mm/seed-2"].map(std::path::PathBuf::from)
+    );
+    let merged = tmp.path().join("merged");
+    assert_eq!(shard::assemble(&parts, &merged).unwrap(), command);
+    let runner = Runner::new(Part::Merge, Some(&merged), Vec::new()).unwrap();
+    let again = run_cases(&cases, &seeds, 2.0 * p0, Some(&merged), false, &runner)
+        .unwrap()
+        .unwrap();
+    assert_eq!(again.rows, one.rows);
+    // Every file but the wall times (timing.*), to the byte.
+    let (a, b) = (files(&whole), files(&merged));
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    let mut compared = 0;
+    for (path, bytes) in &a {
+        if !path
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .starts_with("timing.")
+        {
+            assert!(b[path] == *bytes, "{} differs", path.display());
+            compared += 1;
+        }
+    }
+    assert!(compared > 20, "{compared} files");
+
+    // A record of another case is refused by name.
+    let record = merged.join("h40mm/seed-1").join(burrow::cases::RECORD);
+    std::fs::copy(
+        merged.join("h50mm/seed-1").join(burrow::cases::RECORD),
+        &record,
+    )
+    .unwrap();
+    let runner = Runner::new(Part::Merge, Some(&merged), Vec::new()).unwrap();
+    let e = run_cases(&cases, &seeds, 2.0 * p0, Some(&merged), false, &runner).unwrap_err();
+    assert!(format!("{e:#}").contains("another case"), "{e:#}");
 }

@@ -1,6 +1,7 @@
 //! The solver sand's regeneration: binning of solver samples, the data
 //! file written and read back, and the options' checks.
 
+use burrow::cases::Runner;
 use burrow::solver_sand::{
     bin_samples, csv_text, run_depth, spec, Bin, DepthRun, RegenerateOptions,
 };
@@ -75,7 +76,10 @@ fn a_solver_run_needs_a_seed() {
         seeds: 0,
         ..RegenerateOptions::paper(vec![40.0], true)
     };
-    let e = format!("{:#}", run_depth(&opts, 40.0).unwrap_err());
+    let e = format!(
+        "{:#}",
+        run_depth(&opts, 40.0, &Runner::whole()).unwrap_err()
+    );
     assert!(e.contains("at least one seed"), "{e}");
 }
 

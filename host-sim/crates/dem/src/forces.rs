@@ -947,8 +947,11 @@ impl WallContacts {
 
     /// Marks, per particle, the walls it can touch while it stays within
     /// half the skin (m) of `list.reference_m`: those closer than the skin
-    /// to its surface there. Redone when the list was rebuilt or the walls
-    /// moved (the caller changed them); every wall when there are more than
+    /// to its surface there. Redone when the list was rebuilt or a wall
+    /// moved half the skin or more since (the caller moves them; a
+    /// particle within half the skin of its reference and a wall within
+    /// half the skin of its culled place cannot meet unmarked), or changed
+    /// its normal or axis; every wall when there are more than
     /// [`MAX_CULLED_WALLS`].
     pub(crate) fn cull(
         &mut self,
@@ -957,14 +960,17 @@ impl WallContacts {
         list: &NeighbourList,
         skin_m: f64,
     ) {
-        let shapes = walls.iter().map(|w| w.shape);
+        let moved_little = |(w, then): (&Wall, &WallShape)| {
+            w.shape.shift_from(then).is_some_and(|d| d < 0.5 * skin_m)
+        };
         if self.near_for.0 == list.builds
             && self.near.len() == p.len()
-            && shapes.clone().eq(self.near_for.1.iter().copied())
+            && self.near_for.1.len() == walls.len()
+            && walls.iter().zip(&self.near_for.1).all(moved_little)
         {
             return;
         }
-        self.near_for = (list.builds, shapes.collect());
+        self.near_for = (list.builds, walls.iter().map(|w| w.shape).collect());
         if walls.len() > MAX_CULLED_WALLS {
             self.near.clear();
             self.near.resize(p.len(), u64::MAX);

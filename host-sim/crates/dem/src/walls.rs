@@ -38,6 +38,43 @@ pub enum WallShape {
     },
 }
 
+impl WallShape {
+    /// The farthest any point of the surface moved from `earlier` to this
+    /// shape (m), or `None` when the two are not the same surface moved
+    /// along its normal (another normal, axis or side): how far a particle
+    /// could have come closer to the wall through the wall's own motion.
+    pub fn shift_from(&self, earlier: &WallShape) -> Option<f64> {
+        match (*self, *earlier) {
+            (
+                WallShape::Plane { point_m, normal },
+                WallShape::Plane {
+                    point_m: p0,
+                    normal: n0,
+                },
+            ) if normal == n0 => Some((point_m - p0).dot(&normal).abs()),
+            (
+                WallShape::Cylinder {
+                    axis_point_m,
+                    axis,
+                    radius_m,
+                    side,
+                },
+                WallShape::Cylinder {
+                    axis_point_m: a0,
+                    axis: ax0,
+                    radius_m: r0,
+                    side: s0,
+                },
+            ) if axis == ax0 && side == s0 => {
+                let moved = axis_point_m - a0;
+                let across = (moved - axis * moved.dot(&axis)).norm();
+                Some(across + (radius_m - r0).abs())
+            }
+            _ => None,
+        }
+    }
+}
+
 /// A rigid wall with its contact law.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wall {
@@ -204,5 +241,32 @@ mod tests {
             .touch(&Vector3::new(0.0, 0.0105, 0.0), 0.001)
             .unwrap();
         assert!((d - 0.0005).abs() < 1e-12 && (n - Vector3::y()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn a_shift_is_the_surfaces_largest_move_along_its_normal() {
+        let plane = |p: [f64; 3], n: Vector3<f64>| WallShape::Plane {
+            point_m: Vector3::from(p),
+            normal: n,
+        };
+        let z = Vector3::z();
+        // Along the normal counts, within the plane does not.
+        let s = plane([0.3, -0.2, 0.004], z).shift_from(&plane([0.0, 0.0, 0.001], z));
+        assert!((s.unwrap() - 0.003).abs() < 1e-15);
+        // Another normal (or a plane become a cylinder) is another surface.
+        assert_eq!(
+            plane([0.0; 3], Vector3::x()).shift_from(&plane([0.0; 3], z)),
+            None
+        );
+        let rod = |c: [f64; 3], r: f64| WallShape::Cylinder {
+            axis_point_m: Vector3::from(c),
+            axis: Vector3::y(),
+            radius_m: r,
+            side: CylinderSide::Outside,
+        };
+        assert_eq!(rod([0.0; 3], 0.01).shift_from(&plane([0.0; 3], z)), None);
+        // A rod grown by 0.5 mm whose axis moved 0.3 mm across and 5 mm along.
+        let s = rod([0.0003, 0.005, 0.0], 0.0105).shift_from(&rod([0.0; 3], 0.01));
+        assert!((s.unwrap() - 0.0008).abs() < 1e-15);
     }
 }

@@ -48,7 +48,7 @@ pub struct Exchange {
 }
 
 /// What the coupled run reports at one instant.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Sample {
     /// Time (s).
     pub time_s: f64,
