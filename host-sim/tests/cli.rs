@@ -92,3 +92,76 @@ fn cli_merge_refuses_parts_that_do_not_make_an_ensemble() {
         "{stderr}"
     );
 }
+
+/// A Treloar reference file (shared/reference, beside the repository).
+fn treloar(mode: &str) -> PathBuf {
+    let rel = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/reference")
+        .join(format!("treloar_{mode}.csv"));
+    if rel.exists() {
+        rel
+    } else {
+        PathBuf::from(format!("/work/shared/reference/treloar_{mode}.csv"))
+    }
+}
+
+#[test]
+fn cli_fit_skin_fits_one_mode_and_predicts_another() {
+    let dir = tempfile::tempdir().unwrap();
+    let host_sim = || std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"));
+    let out = host_sim()
+        .arg("fit-skin")
+        .arg(treloar("uniaxial"))
+        .arg(treloar("planar"))
+        .args(["--fit-modes", "uniaxial", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("treloar_planar.csv planar (14 rows, nominal stress, max strain 3.970): predicted, not fitted"), "{stdout}");
+    // Yeoh's row of the per-mode table: fitted uniaxial, predicted planar.
+    let yeoh = stdout
+        .lines()
+        .filter(|l| l.starts_with("Yeoh "))
+        .nth(1)
+        .unwrap();
+    assert!(
+        yeoh.contains("0.9973 (100.6)") && yeoh.contains("*0.9818"),
+        "{yeoh}"
+    );
+    assert!(dir.path().join("skin-fit.json").exists() && dir.path().join("skin-fit.svg").exists());
+
+    // A mode name that is none of the three, and a law that does not exist.
+    let bad = host_sim()
+        .arg("fit-skin")
+        .arg(treloar("uniaxial"))
+        .args(["--fit-modes", "biaxial"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("--fit-modes: `biaxial` is not a test mode")
+    );
+    let bad = host_sim()
+        .arg("fit-skin")
+        .arg(treloar("uniaxial"))
+        .args([
+            "--inflation",
+            "/nonexistent",
+            "--inflation-law",
+            "Arruda-Boyce",
+        ])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        stderr.contains("--inflation-law: no law `Arruda-Boyce` (laws: neo-Hookean, Mooney-Rivlin, Yeoh, Gent, Ogden-1, Ogden-2, Ogden-3)"),
+        "{stderr}"
+    );
+}
