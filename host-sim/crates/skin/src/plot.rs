@@ -11,6 +11,7 @@ use plotters::prelude::*;
 use super::coupon::{CouponTest, Mode};
 use super::fit::LawFit;
 use super::inflation::{tube_pressures_kpa, InflationPoint, InflationReport};
+use super::report::r_squared_text;
 use ::plot::plot_err;
 
 /// Colours of the fitted curves, in registry order.
@@ -203,7 +204,7 @@ where
         // Clip to the panel so an unstable extrapolation stays readable.
         let curve = curve.filter(|(_, s)| s.is_finite() && *s >= s_min && *s <= s_max);
         let r2 = fit.mode(mode).map_or(f64::NAN, |m| m.r_squared);
-        let label = format!("{} (R² = {r2:.4})", fit.law);
+        let label = format!("{} (R² = {})", fit.law, r_squared_text(r2));
         chart
             .draw_series(LineSeries::new(curve, colour.stroke_width(2)))
             .map_err(plot_err)?

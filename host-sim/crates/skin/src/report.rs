@@ -272,9 +272,9 @@ impl FitSkinReport {
                 for m in &modes {
                     let cell = f.mode(*m).map_or_else(String::new, |s| {
                         format!(
-                            "{}{:.4} ({})",
+                            "{}{} ({})",
                             if s.fitted { "" } else { "*" },
-                            s.r_squared,
+                            r_squared_text(s.r_squared),
                             sig(s.rmse_kpa)
                         )
                     });
@@ -287,6 +287,16 @@ impl FitSkinReport {
             out.push_str(&inf.table());
         }
         out
+    }
+}
+
+/// R² to four decimals; far below zero (a prediction that misses by
+/// orders of magnitude) in scientific form, so a column stays readable.
+pub fn r_squared_text(r2: f64) -> String {
+    if r2 > -10.0 || !r2.is_finite() {
+        format!("{r2:.4}")
+    } else {
+        format!("{r2:.2e}")
     }
 }
 
@@ -374,5 +384,7 @@ mod tests {
         assert_eq!(sig(-4.0), "-4.000");
         assert_eq!(sig(1.5e-6), "1.500e-6");
         assert_eq!(sig(0.0), "0.000");
+        assert_eq!(r_squared_text(0.89286), "0.8929");
+        assert_eq!(r_squared_text(-5240.0082), "-5.24e3");
     }
 }
