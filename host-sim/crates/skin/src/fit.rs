@@ -104,6 +104,9 @@ pub struct ModeFit {
     pub r_squared: f64,
     /// sqrt(RSS/n) of nominal stress over this mode's rows (kPa).
     pub rmse_kpa: f64,
+    /// Rows where the law gives no finite stress (beyond Gent's lock);
+    /// R² and RMSE are then NaN (`null` in JSON).
+    pub no_stress_rows: usize,
 }
 
 /// A law fitted to coupon tests.
@@ -218,16 +221,29 @@ fn stretch_range<'a>(tests: impl Iterator<Item = &'a CouponTest>) -> (f64, f64) 
 fn mode_stats(law: &dyn StrainEnergy, mode: Mode, rows: &[(f64, f64)], fitted: bool) -> ModeFit {
     let n = rows.len();
     let mean = rows.iter().map(|r| r.1).sum::<f64>() / n.max(1) as f64;
-    let (rss, tss) = rows.iter().fold((0.0, 0.0), |(rss, tss), (l, p)| {
-        let e = mode.nominal_kpa(law, *l) - p;
-        (rss + e * e, tss + (p - mean).powi(2))
-    });
+    let predicted: Vec<f64> = rows
+        .iter()
+        .map(|(l, _)| mode.nominal_kpa(law, *l))
+        .collect();
+    let no_stress_rows = predicted.iter().filter(|p| !p.is_finite()).count();
+    let (rss, tss) = rows
+        .iter()
+        .zip(&predicted)
+        .fold((0.0, 0.0), |(rss, tss), ((_, p), q)| {
+            (rss + (q - p).powi(2), tss + (p - mean).powi(2))
+        });
+    let (r_squared, rmse_kpa) = if no_stress_rows > 0 {
+        (f64::NAN, f64::NAN)
+    } else {
+        (1.0 - rss / tss, (rss / n.max(1) as f64).sqrt())
+    };
     ModeFit {
         mode,
         fitted,
         points: n,
-        r_squared: 1.0 - rss / tss,
-        rmse_kpa: (rss / n.max(1) as f64).sqrt(),
+        r_squared,
+        rmse_kpa,
+        no_stress_rows,
     }
 }
 
@@ -617,5 +633,33 @@ mod tests {
         assert!(m.uniaxial_cauchy_slope_kpa(l + 1e-6) <= 0.0);
         let x = l * l + 2.0 / l - 3.0;
         assert!(x < 5.0, "loses stability before W1 = 0 (I1 − 3 = 5): {x}");
+    }
+
+    #[test]
+    fn rows_beyond_a_locking_law_are_counted_not_averaged() {
+        // Gent fitted on small strains, asked about strains past its lock.
+        let truth = crate::Gent {
+            mu_kpa: 10.0,
+            jm: 1.0,
+        };
+        let small: Vec<f64> = (0..8).map(|i| 0.05 * f64::from(i)).collect();
+        let p = small
+            .iter()
+            .map(|e| truth.uniaxial_nominal_kpa(1.0 + e))
+            .collect();
+        let fit_on = CouponTest::from_nominal("s", Mode::Uniaxial, small, p);
+        let mut fit = fit_law(&crate::Gent::SPEC, &[fit_on]).unwrap();
+        let far = CouponTest::from_nominal(
+            "far",
+            Mode::Equibiaxial,
+            vec![0.1, 0.5, 1.0, 2.0],
+            vec![1.0, 5.0, 20.0, 80.0],
+        );
+        fit.predict(&[far]);
+        let m = fit.mode(Mode::Equibiaxial).unwrap();
+        // I1 − 3 at equibiaxial λ = 1.5 is 1.69 > Jm = 1: three rows locked.
+        assert_eq!(m.no_stress_rows, 3);
+        assert!(m.r_squared.is_nan() && m.rmse_kpa.is_nan());
+        assert_eq!(fit.mode(Mode::Uniaxial).unwrap().no_stress_rows, 0);
     }
 }

@@ -87,6 +87,10 @@ pub struct InflationFit {
     pub points: usize,
     /// Starts tried.
     pub starts: usize,
+    /// Levenberg–Marquardt iterations of the winning start (at most
+    /// [`lm::Stop::TUBE`]'s cap: reaching it means the curve does not
+    /// determine every coefficient).
+    pub iterations: usize,
 }
 
 impl InflationFit {
@@ -221,7 +225,7 @@ pub fn fit_inflation(
     };
     let mut best: Option<lm::Minimum> = None;
     for s in &starts {
-        let Some(m) = lm::minimise(residuals, s, &bounds) else {
+        let Some(m) = lm::minimise_until(residuals, s, &bounds, lm::Stop::TUBE) else {
             continue;
         };
         if best.as_ref().is_none_or(|b| m.rss < b.rss) {
@@ -248,6 +252,7 @@ pub fn fit_inflation(
         rmse_kpa,
         points: n,
         starts: starts.len(),
+        iterations: best.iterations,
     })
 }
 
@@ -345,12 +350,17 @@ impl InflationReport {
             .collect();
         let _ = writeln!(
             out,
-            "  {} through the closed-end tube: R² {:.5}, RMSE {:.4} kPa, μ = {:.4} kPa; {}",
+            "  {} through the closed-end tube: R² {:.5}, RMSE {:.4} kPa, μ = {:.4} kPa; {}{}",
             f.law,
             f.r_squared,
             f.rmse_kpa,
             f.shear_modulus_kpa,
-            coeffs.join(", ")
+            coeffs.join(", "),
+            if f.iterations >= lm::Stop::TUBE.max_iterations {
+                " (iteration cap reached: the curve does not determine every coefficient)"
+            } else {
+                ""
+            }
         );
         if let Some(c) = &self.coupon {
             let _ = writeln!(
@@ -359,11 +369,19 @@ impl InflationReport {
                 c.law, c.coupon_law_on_inflation_r_squared, c.coupon_law_on_inflation_rmse_kpa, c.shear_modulus_ratio
             );
             for m in &c.inflation_law_on_coupons {
-                let _ = writeln!(
-                    out,
-                    "  inflation {} on the {} coupons: R² {:.5}, RMSE {:.4} kPa",
-                    c.law, m.mode, m.r_squared, m.rmse_kpa
-                );
+                if m.no_stress_rows > 0 {
+                    let _ = writeln!(
+                        out,
+                        "  inflation {} on the {} coupons: no finite stress at {} of {} rows (beyond the law's limit)",
+                        c.law, m.mode, m.no_stress_rows, m.points
+                    );
+                } else {
+                    let _ = writeln!(
+                        out,
+                        "  inflation {} on the {} coupons: R² {:.5}, RMSE {:.4} kPa",
+                        c.law, m.mode, m.r_squared, m.rmse_kpa
+                    );
+                }
             }
         }
         out

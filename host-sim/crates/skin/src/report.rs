@@ -271,6 +271,13 @@ impl FitSkinReport {
                 let _ = write!(out, "{:<14}", f.law);
                 for m in &modes {
                     let cell = f.mode(*m).map_or_else(String::new, |s| {
+                        if s.no_stress_rows > 0 {
+                            return format!(
+                                "{}no stress at {} rows",
+                                if s.fitted { "" } else { "*" },
+                                s.no_stress_rows
+                            );
+                        }
                         format!(
                             "{}{} ({})",
                             if s.fitted { "" } else { "*" },
