@@ -36,16 +36,13 @@ pub enum Command {
     /// Regenerate the firmware's pressure→diameter table (src/table/generated.rs)
     /// from the skin model and the sand of `tables::TABLE_SAND`.
     Tables(TablesArgs),
-    /// Fit neo-Hookean, Mooney–Rivlin and Yeoh laws to a uniaxial test CSV
-    /// (strain + cauchy_stress_kpa or nominal_stress_kpa); writes
+    /// Fit every skin law (neo-Hookean, Mooney–Rivlin, Yeoh, Gent, Ogden
+    /// 1–3) to skin tests of any mode (uniaxial, equibiaxial, planar;
+    /// shared/data-format.md), jointly, reporting R² and RMSE per mode;
+    /// optionally fit some modes and predict the others, and fit a law's
+    /// shape to an experiment folder's free inflation. Writes
     /// <stem>-fit.json and <stem>-fit.svg.
-    FitSkin {
-        /// The uniaxial test (shared/data-format.md).
-        file: PathBuf,
-        /// Folder for the JSON result and the SVG plot.
-        #[arg(long, default_value = ".")]
-        out: PathBuf,
-    },
+    FitSkin(FitSkinArgs),
     /// The paper's scenario: the zone expanding from 18.7 to 25 mm in
     /// submerged coarse-grained DEM sand at a depth, coupled to the FEM
     /// skin; or your own actuator and sand with --rig. Writes samples.csv,
@@ -621,6 +618,31 @@ pub enum BenchCommand {
 }
 
 /// `bench dem --simd`.
+/// `fit-skin`'s arguments.
+#[derive(clap::Args)]
+pub struct FitSkinArgs {
+    /// Skin-test CSV files (strain, cauchy_stress_kpa or
+    /// nominal_stress_kpa, optional mode); several files or modes are
+    /// fitted jointly.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Fit only these modes (comma separated: uniaxial, equibiaxial,
+    /// planar) and predict the others; default: every mode given.
+    #[arg(long = "fit-modes", value_delimiter = ',')]
+    pub fit_modes: Option<Vec<String>>,
+    /// Experiment folder whose free runs (depth 0) the law's shape is
+    /// fitted to through the thick-walled tube, compared with the coupon
+    /// fit of the same law.
+    #[arg(long)]
+    pub inflation: Option<PathBuf>,
+    /// The law fitted to the inflation (a name as the fit table prints it).
+    #[arg(long = "inflation-law", default_value = "Yeoh")]
+    pub inflation_law: String,
+    /// Folder for the JSON result and the SVG plot.
+    #[arg(long, default_value = ".")]
+    pub out: PathBuf,
+}
+
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum SimdChoice {
     // No doc comments: clap would print them as each value's help.

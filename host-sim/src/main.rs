@@ -36,7 +36,7 @@ fn run(cli: Cli, argv: Vec<String>) -> Result<()> {
     match cli.command {
         Command::Demo { out } => demo(&out),
         Command::Tables(a) => tables(a.settings()),
-        Command::FitSkin { file, out } => fit_skin(&file, &out),
+        Command::FitSkin(a) => fit_skin(&a),
         Command::Simulate(a) => {
             let part = shard_part(a.shard);
             simulate(a.settings(), part, part_command(&argv, &["--out"]))
@@ -130,9 +130,43 @@ fn tables(settings: tables::TablesSettings) -> Result<()> {
     Ok(())
 }
 
-fn fit_skin(file: &std::path::Path, out: &std::path::Path) -> Result<()> {
-    let done = skin::report::fit_skin(file, out)?;
-    warn(&done.report.input.warnings);
+fn fit_skin(a: &args::FitSkinArgs) -> Result<()> {
+    use skin::coupon::Mode;
+    let fit_modes = a
+        .fit_modes
+        .as_ref()
+        .map(|names| {
+            names
+                .iter()
+                .map(|n| {
+                    Mode::parse(n).ok_or_else(|| {
+                        anyhow::anyhow!(
+                            "--fit-modes: `{n}` is not a test mode (uniaxial, equibiaxial or planar)"
+                        )
+                    })
+                })
+                .collect::<Result<Vec<_>>>()
+        })
+        .transpose()?;
+    let spec = skin::LawSpec::by_name(&a.inflation_law).ok_or_else(|| {
+        let names: Vec<&str> = skin::LAWS.iter().map(|l| l.name).collect();
+        anyhow::anyhow!(
+            "--inflation-law: no law `{}` (laws: {})",
+            a.inflation_law,
+            names.join(", ")
+        )
+    })?;
+    let tests = skin::report::read_tests(&a.files)?;
+    let mut report = skin::report::FitSkinReport::from_tests(&tests, fit_modes.as_deref())?;
+    if let Some(dir) = &a.inflation {
+        let free = workbench::skin_inflation::FreeInflation::read(dir)?;
+        warn(&free.warnings);
+        let coupon = report.fit(spec.name).map(|f| (f, tests.as_slice()));
+        report.inflation = Some(free.fit(spec, coupon)?);
+    }
+    warn(&report.warnings);
+    let stem = skin::report::output_stem(&a.files);
+    let done = skin::report::write_report(report, &tests, &stem, &a.out)?;
     print!("{}", done.report.table());
     println!(
         "wrote {} and {}",

@@ -167,3 +167,57 @@ fn cli_sand_test_splits_and_merges_into_the_same_summary() {
     let k0 = summary["oedometer"][8 + 3]["k0"]["mean"].as_f64().unwrap();
     assert!((0.2..0.9).contains(&k0), "K0 {k0}");
 }
+
+/// A Treloar reference file (shared/reference, beside the repository).
+fn treloar(mode: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/reference")
+        .join(format!("treloar_{mode}.csv"))
+}
+
+#[test]
+fn cli_fit_skin_fits_one_mode_and_predicts_another() {
+    let dir = tempfile::tempdir().unwrap();
+    let stdout = succeeds(
+        host_sim()
+            .arg("fit-skin")
+            .arg(treloar("uniaxial"))
+            .arg(treloar("planar"))
+            .args(["--fit-modes", "uniaxial", "--out"])
+            .arg(dir.path()),
+    );
+    assert!(stdout.contains("treloar_planar.csv planar (14 rows, nominal stress, max strain 3.970): predicted, not fitted"), "{stdout}");
+    // Yeoh's row of the per-mode table: fitted uniaxial, predicted planar.
+    let yeoh = stdout
+        .lines()
+        .filter(|l| l.starts_with("Yeoh "))
+        .nth(1)
+        .unwrap();
+    assert!(
+        yeoh.contains("0.9973 (100.6)") && yeoh.contains("*0.9818"),
+        "{yeoh}"
+    );
+    assert!(dir.path().join("skin-fit.json").exists() && dir.path().join("skin-fit.svg").exists());
+
+    // A mode name that is none of the three, and a law that does not exist.
+    let stderr = fails(
+        host_sim()
+            .arg("fit-skin")
+            .arg(treloar("uniaxial"))
+            .args(["--fit-modes", "biaxial"]),
+    );
+    assert!(
+        stderr.contains("--fit-modes: `biaxial` is not a test mode"),
+        "{stderr}"
+    );
+    let stderr = fails(host_sim().arg("fit-skin").arg(treloar("uniaxial")).args([
+        "--inflation",
+        "/nonexistent",
+        "--inflation-law",
+        "Arruda-Boyce",
+    ]));
+    assert!(
+        stderr.contains("--inflation-law: no law `Arruda-Boyce` (laws: neo-Hookean, Mooney-Rivlin, Yeoh, Gent, Ogden-1, Ogden-2, Ogden-3)"),
+        "{stderr}"
+    );
+}

@@ -38,7 +38,7 @@
 //!
 //! impl StrainEnergy for NeoHookean {
 //!     fn name(&self) -> &'static str { "neo-Hookean" }
-//!     fn parameters_kpa(&self) -> Vec<f64> { vec![self.c10_kpa] }
+//!     fn parameters(&self) -> Vec<f64> { vec![self.c10_kpa] }
 //!     fn energy_kpa(&self, i1: f64, _: f64) -> f64 { self.c10_kpa * (i1 - 3.0) }
 //!     fn dw_di1_kpa(&self, _: f64, _: f64) -> f64 { self.c10_kpa }
 //!     fn dw_di2_kpa(&self, _: f64, _: f64) -> f64 { 0.0 }

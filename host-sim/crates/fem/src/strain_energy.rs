@@ -1,6 +1,12 @@
 //! The constitutive interface the FEM skin needs: an incompressible,
 //! isotropic hyperelastic law given by W(I1, I2) and its derivatives. The
 //! laws themselves (and their fits) live in the skin crate.
+//!
+//! Laws written in principal stretches (Ogden) implement the same
+//! interface: W(I1, I2) is a smooth function of the invariants for any
+//! smooth symmetric function of the stretches, and such a law overrides
+//! the principal-stretch views below ([`StrainEnergy::extra_stress_kpa`],
+//! the uniaxial slope, the shear modulus) with its own closed forms.
 
 /// An incompressible, isotropic strain-energy density W(I1, I2) (kPa, i.e.
 /// kJ/m³), I1 and I2 the invariants of the right Cauchy–Green tensor.
@@ -11,8 +17,9 @@
 pub trait StrainEnergy: std::fmt::Debug + Send + Sync {
     /// Name of the law, as in the skin crate's law registry.
     fn name(&self) -> &'static str;
-    /// Coefficients (kPa), in the law's own order.
-    fn parameters_kpa(&self) -> Vec<f64>;
+    /// Coefficients in the law's own order, units as in the registry's
+    /// parameter names (moduli in kPa, exponents and limits dimensionless).
+    fn parameters(&self) -> Vec<f64>;
     /// W (kPa) at the invariants `i1`, `i2`.
     fn energy_kpa(&self, i1: f64, i2: f64) -> f64;
     /// ∂W/∂I1 (kPa).
@@ -32,9 +39,11 @@ pub trait StrainEnergy: std::fmt::Debug + Send + Sync {
     }
 
     /// Principal Cauchy stresses (kPa) up to the common pressure:
-    /// t_i = 2·W1·λi² − 2·W2·λi⁻², for principal stretches `stretches`
-    /// (their product must be 1). The true stress is σ_i = t_i − p; only
-    /// differences t_i − t_j are meaningful.
+    /// t_i = λi·∂W/∂λi = 2·W1·λi² − 2·W2·λi⁻², for principal stretches
+    /// `stretches` (their product must be 1). The true stress is
+    /// σ_i = t_i − p; only differences t_i − t_j are meaningful. Every
+    /// homogeneous-test stress below and the tube inflation derive from
+    /// this one; a principal-stretch law overrides it with λi·∂W/∂λi.
     fn extra_stress_kpa(&self, stretches: [f64; 3]) -> [f64; 3] {
         let [a, b, c] = stretches.map(|l| l * l);
         let (i1, i2) = (a + b + c, a * b + b * c + c * a);
@@ -89,5 +98,59 @@ pub trait StrainEnergy: std::fmt::Debug + Send + Sync {
     fn planar_nominal_kpa(&self, stretch: f64) -> f64 {
         let [t1, _, t3] = self.extra_stress_kpa([stretch, 1.0, 1.0 / stretch]);
         (t1 - t3) / stretch
+    }
+}
+
+/// A boxed law is a law: every method forwards, the overridden views
+/// included, so a law chosen at run time (a fit's result) drives the tube
+/// and the FEM skin exactly as its concrete type would.
+impl<T: StrainEnergy + ?Sized> StrainEnergy for Box<T> {
+    fn name(&self) -> &'static str {
+        (**self).name()
+    }
+    fn parameters(&self) -> Vec<f64> {
+        (**self).parameters()
+    }
+    fn energy_kpa(&self, i1: f64, i2: f64) -> f64 {
+        (**self).energy_kpa(i1, i2)
+    }
+    fn dw_di1_kpa(&self, i1: f64, i2: f64) -> f64 {
+        (**self).dw_di1_kpa(i1, i2)
+    }
+    fn dw_di2_kpa(&self, i1: f64, i2: f64) -> f64 {
+        (**self).dw_di2_kpa(i1, i2)
+    }
+    fn d2w_di1_di1_kpa(&self, i1: f64, i2: f64) -> f64 {
+        (**self).d2w_di1_di1_kpa(i1, i2)
+    }
+    fn d2w_di1_di2_kpa(&self, i1: f64, i2: f64) -> f64 {
+        (**self).d2w_di1_di2_kpa(i1, i2)
+    }
+    fn d2w_di2_di2_kpa(&self, i1: f64, i2: f64) -> f64 {
+        (**self).d2w_di2_di2_kpa(i1, i2)
+    }
+    fn shear_modulus_kpa(&self) -> f64 {
+        (**self).shear_modulus_kpa()
+    }
+    fn extra_stress_kpa(&self, stretches: [f64; 3]) -> [f64; 3] {
+        (**self).extra_stress_kpa(stretches)
+    }
+    fn uniaxial_cauchy_kpa(&self, stretch: f64) -> f64 {
+        (**self).uniaxial_cauchy_kpa(stretch)
+    }
+    fn uniaxial_nominal_kpa(&self, stretch: f64) -> f64 {
+        (**self).uniaxial_nominal_kpa(stretch)
+    }
+    fn uniaxial_nominal_slope_kpa(&self, stretch: f64) -> f64 {
+        (**self).uniaxial_nominal_slope_kpa(stretch)
+    }
+    fn uniaxial_cauchy_slope_kpa(&self, stretch: f64) -> f64 {
+        (**self).uniaxial_cauchy_slope_kpa(stretch)
+    }
+    fn equibiaxial_nominal_kpa(&self, stretch: f64) -> f64 {
+        (**self).equibiaxial_nominal_kpa(stretch)
+    }
+    fn planar_nominal_kpa(&self, stretch: f64) -> f64 {
+        (**self).planar_nominal_kpa(stretch)
     }
 }

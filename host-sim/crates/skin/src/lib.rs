@@ -1,36 +1,48 @@
 //! The actuator's skin: incompressible isotropic hyperelastic laws, their
-//! fit to uniaxial tests, and the inflation of the skin tube.
+//! fit to coupon tests (uniaxial, equibiaxial, planar) and to the
+//! actuator's own free inflation, and the inflation of the skin tube.
 //!
 //! Shape (after felupe): one small struct per strain energy
-//! ([`NeoHookean`], [`MooneyRivlin`], [`Yeoh`]), each giving W(I1, I2) and
-//! its first and second derivatives; the [`StrainEnergy`] trait derives the
-//! stresses of every homogeneous test (uniaxial, equibiaxial, planar) once
-//! from those derivatives. [`LAWS`] is the registry the fitter iterates: a
-//! new law is one file plus one row there.
+//! ([`NeoHookean`], [`MooneyRivlin`], [`Yeoh`], [`Gent`], [`Ogden`] with
+//! 1–3 terms), each giving W(I1, I2) and its first and second derivatives;
+//! the [`StrainEnergy`] trait derives the stresses of every homogeneous
+//! test once from those derivatives (a principal-stretch law such as Ogden
+//! overrides the principal views with its closed forms). [`LAWS`] is the
+//! registry the fitter iterates: a new law is one file plus one row there.
 //!
-//! All three laws are linear in their coefficients, so fitting is ordinary
-//! linear least squares ([`fit`]).
+//! NH, MR and Yeoh are linear in their coefficients and fitted by linear
+//! least squares; Ogden and Gent by a bounded Levenberg–Marquardt from
+//! several starts ([`fit`], [`lm`]).
 //!
-//! - [`uniaxial`]: reading a tensile test (`shared/data-format.md`);
-//! - [`fit`]: least-squares fit, standard errors, Drucker stability scan;
+//! - [`coupon`]: reading skin tests of every mode (`shared/data-format.md`);
+//! - [`fit`]: joint least-squares fit, standard errors, per-mode R² and
+//!   RMSE, Drucker stability scan;
+//! - [`lm`]: the bounded Levenberg–Marquardt minimiser;
+//! - [`inflation`]: fitting a law to a free inflation, p(D), through the tube;
 //! - [`plot`]: the SVG of data and fits;
 //! - [`report`]: the `fit-skin` command's library side (read, fit, write);
 //! - [`membrane`]: thick-walled tube inflation, pressure vs diameter;
 //! - [`unicinctus`]: the synthetic *U. unicinctus* data set and the default
 //!   skin fitted to it.
 
+pub mod coupon;
 pub mod fit;
+pub mod gent;
+pub mod inflation;
+pub mod lm;
 pub mod membrane;
 pub mod mooney_rivlin;
 pub mod neo_hookean;
+pub mod ogden;
 pub mod plot;
 pub mod report;
-pub mod uniaxial;
 pub mod unicinctus;
 pub mod yeoh;
 
+pub use gent::Gent;
 pub use mooney_rivlin::MooneyRivlin;
 pub use neo_hookean::NeoHookean;
+pub use ogden::{Ogden, OgdenTerm};
 pub use yeoh::Yeoh;
 
 /// The strain-energy interface, defined by the FEM kernel that consumes
@@ -42,11 +54,31 @@ pub use fem::StrainEnergy;
 pub struct LawSpec {
     /// Name shown in tables, plots and JSON.
     pub name: &'static str,
-    /// Coefficient names, in fitting order (all in kPa).
+    /// Coefficient names, in fitting order, with their units (`_kpa`:
+    /// kPa; none: dimensionless).
     pub parameter_names: &'static [&'static str],
-    /// Builds the law from coefficients (kPa) in that order; `None` when
-    /// the count is wrong.
-    pub from_parameters_kpa: fn(&[f64]) -> Option<Box<dyn StrainEnergy>>,
+    /// Builds the law from coefficients in that order; `None` when the
+    /// count is wrong or a value is outside the law's domain.
+    pub from_parameters: fn(&[f64]) -> Option<Box<dyn StrainEnergy>>,
+    /// How the stresses depend on the coefficients, i.e. how to fit them.
+    pub form: Form,
+}
+
+/// How a law's stresses depend on its coefficients.
+#[derive(Clone, Copy, Debug)]
+pub enum Form {
+    /// Linear in every coefficient: ordinary least squares.
+    Linear,
+    /// Nonlinear: bounded Levenberg–Marquardt from several starts.
+    Nonlinear {
+        /// Bounds (lower, upper) of each coefficient.
+        bounds: &'static [(f64, f64)],
+        /// Indices of the coefficients the stresses are linear in (the
+        /// moduli); at each start they are solved by least squares.
+        linear_in: &'static [usize],
+        /// Starting values of the other coefficients, one vector per start.
+        starts: fn() -> Vec<Vec<f64>>,
+    },
 }
 
 impl LawSpec {
@@ -56,10 +88,18 @@ impl LawSpec {
     }
 }
 
-/// Every law the fitter knows, simplest first. The stresses of each are
-/// linear in its coefficients, which the least-squares fit relies on (and a
-/// test checks for each row).
-pub static LAWS: [LawSpec; 3] = [NeoHookean::SPEC, MooneyRivlin::SPEC, Yeoh::SPEC];
+/// Every law the fitter knows, simplest first. A row marked
+/// [`Form::Linear`] has stresses linear in its coefficients, which the
+/// least-squares fit relies on (and a test checks for each such row).
+pub static LAWS: [LawSpec; 7] = [
+    NeoHookean::SPEC,
+    MooneyRivlin::SPEC,
+    Yeoh::SPEC,
+    Gent::SPEC,
+    Ogden::SPECS[0],
+    Ogden::SPECS[1],
+    Ogden::SPECS[2],
+];
 
 /// Invariants (I1, I2) of C for principal stretches `stretches`.
 pub fn invariants(stretches: [f64; 3]) -> (f64, f64) {
@@ -80,10 +120,18 @@ mod tests {
     /// A set of coefficients for each law that keeps every derivative
     /// nonzero, so the checks below are not trivially satisfied.
     fn sample_laws() -> Vec<Box<dyn StrainEnergy>> {
-        let params: [&[f64]; 3] = [&[150.0], &[120.0, 35.0], &[180.0, -4.0, 0.15]];
+        let params: [&[f64]; 7] = [
+            &[150.0],
+            &[120.0, 35.0],
+            &[180.0, -4.0, 0.15],
+            &[300.0, 40.0],
+            &[250.0, 2.7],
+            &[400.0, 1.5, 2.0, 4.2],
+            &[630.0, 1.3, 1.2, 5.0, -10.0, -2.0],
+        ];
         LAWS.iter()
             .zip(params)
-            .map(|(spec, p)| (spec.from_parameters_kpa)(p).unwrap())
+            .map(|(spec, p)| (spec.from_parameters)(p).unwrap())
             .collect()
     }
 
@@ -103,8 +151,8 @@ mod tests {
     fn registry_names_and_counts_match_the_laws() {
         for (spec, law) in LAWS.iter().zip(sample_laws()) {
             assert_eq!(law.name(), spec.name);
-            assert_eq!(law.parameters_kpa().len(), spec.parameter_names.len());
-            assert!((spec.from_parameters_kpa)(&[1.0; 7]).is_none());
+            assert_eq!(law.parameters().len(), spec.parameter_names.len());
+            assert!((spec.from_parameters)(&[1.0; 7]).is_none());
             assert_eq!(LawSpec::by_name(spec.name).unwrap().name, spec.name);
         }
     }
@@ -212,13 +260,13 @@ mod tests {
 
     #[test]
     fn stresses_are_linear_in_the_coefficients() {
-        // The fitter's assumption, checked for every registered law.
-        for spec in &LAWS {
+        // The fitter's assumption, checked for every law marked linear.
+        for spec in LAWS.iter().filter(|s| matches!(s.form, Form::Linear)) {
             let n = spec.parameter_names.len();
             let a: Vec<f64> = (0..n).map(|k| 10.0 + 3.0 * k as f64).collect();
             let b: Vec<f64> = (0..n).map(|k| -2.0 + 0.7 * k as f64).collect();
             let sum: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 2.0 * x + y).collect();
-            let [la, lb, ls] = [a, b, sum].map(|p| (spec.from_parameters_kpa)(&p).unwrap());
+            let [la, lb, ls] = [a, b, sum].map(|p| (spec.from_parameters)(&p).unwrap());
             for l in [0.6, 1.5, 3.0, 7.0] {
                 let want = 2.0 * la.uniaxial_nominal_kpa(l) + lb.uniaxial_nominal_kpa(l);
                 close(ls.uniaxial_nominal_kpa(l), want, 1e-12, spec.name);

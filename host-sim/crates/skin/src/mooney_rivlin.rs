@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{LawSpec, StrainEnergy};
+use super::{Form, LawSpec, StrainEnergy};
 
 /// Two-term Mooney–Rivlin strain energy (kPa).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -19,10 +19,11 @@ impl MooneyRivlin {
     pub const SPEC: LawSpec = LawSpec {
         name: "Mooney-Rivlin",
         parameter_names: &["c10_kpa", "c01_kpa"],
-        from_parameters_kpa: |p| match *p {
+        from_parameters: |p| match *p {
             [c10_kpa, c01_kpa] => Some(Box::new(Self { c10_kpa, c01_kpa })),
             _ => None,
         },
+        form: Form::Linear,
     };
 }
 
@@ -32,7 +33,7 @@ impl StrainEnergy for MooneyRivlin {
     fn name(&self) -> &'static str {
         Self::SPEC.name
     }
-    fn parameters_kpa(&self) -> Vec<f64> {
+    fn parameters(&self) -> Vec<f64> {
         vec![self.c10_kpa, self.c01_kpa]
     }
     #[inline]

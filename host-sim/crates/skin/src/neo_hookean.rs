@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{LawSpec, StrainEnergy};
+use super::{Form, LawSpec, StrainEnergy};
 
 /// Neo-Hookean strain energy W = C10·(I1 − 3) (kPa).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -16,10 +16,11 @@ impl NeoHookean {
     pub const SPEC: LawSpec = LawSpec {
         name: "neo-Hookean",
         parameter_names: &["c10_kpa"],
-        from_parameters_kpa: |p| match *p {
+        from_parameters: |p| match *p {
             [c10_kpa] => Some(Box::new(Self { c10_kpa })),
             _ => None,
         },
+        form: Form::Linear,
     };
 }
 
@@ -29,7 +30,7 @@ impl StrainEnergy for NeoHookean {
     fn name(&self) -> &'static str {
         Self::SPEC.name
     }
-    fn parameters_kpa(&self) -> Vec<f64> {
+    fn parameters(&self) -> Vec<f64> {
         vec![self.c10_kpa]
     }
     #[inline]

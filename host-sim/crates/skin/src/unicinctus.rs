@@ -84,13 +84,18 @@ impl ToeLinearCurve {
     }
 
     /// The samples as a test in memory.
-    pub fn test(&self) -> super::uniaxial::UniaxialTest {
+    pub fn test(&self) -> super::coupon::CouponTest {
         let (strain, nominal) = self
             .samples()
             .into_iter()
             .map(|(e, s)| (e, s / (1.0 + e)))
             .unzip();
-        super::uniaxial::UniaxialTest::from_nominal("synthetic", strain, nominal)
+        super::coupon::CouponTest::from_nominal(
+            "synthetic",
+            super::coupon::Mode::Uniaxial,
+            strain,
+            nominal,
+        )
     }
 
     /// The samples as CSV text (`data-format.md` uniaxial form).

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{LawSpec, StrainEnergy};
+use super::{Form, LawSpec, StrainEnergy};
 
 /// Three-term Yeoh strain energy (kPa). Depends on I1 only.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -21,7 +21,7 @@ impl Yeoh {
     pub const SPEC: LawSpec = LawSpec {
         name: "Yeoh",
         parameter_names: &["c10_kpa", "c20_kpa", "c30_kpa"],
-        from_parameters_kpa: |p| match *p {
+        from_parameters: |p| match *p {
             [c10_kpa, c20_kpa, c30_kpa] => Some(Box::new(Self {
                 c10_kpa,
                 c20_kpa,
@@ -29,6 +29,7 @@ impl Yeoh {
             })),
             _ => None,
         },
+        form: Form::Linear,
     };
 }
 
@@ -38,7 +39,7 @@ impl StrainEnergy for Yeoh {
     fn name(&self) -> &'static str {
         Self::SPEC.name
     }
-    fn parameters_kpa(&self) -> Vec<f64> {
+    fn parameters(&self) -> Vec<f64> {
         vec![self.c10_kpa, self.c20_kpa, self.c30_kpa]
     }
     #[inline]

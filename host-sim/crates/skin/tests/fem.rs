@@ -610,3 +610,55 @@ fn round_rings_stay_round_under_a_one_sided_load() {
     assert!(spread[0] > 0.1e-3, "{spread:?}");
     assert!(spread[1] < 1e-12, "{spread:?}");
 }
+
+/// A principal-stretch law drives the FEM skin through the same interface:
+/// the membrane elements take its W1, W2 from the invariant form (the
+/// contour integrals of `skin::ogden`), the closed-form tube its principal
+/// stresses directly; the two meet within the mesh's 2 %.
+#[test]
+fn an_ogden_skin_inflates_as_its_closed_form_tube() {
+    // Two stiffening terms of the default skin's small-strain modulus
+    // (μ = ½Σμpαp ≈ 4.6 kPa): neither α is ±2, so no term is Mooney–Rivlin.
+    let law = skin::Ogden::new(&[
+        skin::OgdenTerm {
+            mu_kpa: 3.2,
+            alpha: 2.7,
+        },
+        skin::OgdenTerm {
+            mu_kpa: 0.05,
+            alpha: 9.0,
+        },
+    ])
+    .unwrap();
+    assert!((law.shear_modulus_kpa() - 4.545).abs() < 1e-9);
+    let spec = membrane_spec(32, 6);
+    let mut skin = Skin::new(law.clone(), &spec, Ends::Closed).unwrap();
+    let mid_mm = 2.0 * spec.mid_radius_m * 1e3;
+    let thin = Tube::new(
+        TubeGeometry {
+            outer_diameter_mm: mid_mm + THIN_WALL_MM,
+            wall_thickness_mm: THIN_WALL_MM,
+            length_mm: spec.length_m * 1e3,
+        },
+        law,
+        membrane::Ends::Closed,
+    )
+    .unwrap();
+    let scale = spec.thickness_m * 1e3 / THIN_WALL_MM;
+    for p in [300.0, 600.0] {
+        skin.pressure_pa = p;
+        skin.relax(1e-9 * p * spec.length_m * spec.mid_radius_m, 400_000)
+            .unwrap();
+        let mid = 2.0 * skin.ring_radius_m(skin.mesh.middle_ring()) * 1e3;
+        let d = mid + THIN_WALL_MM * mid_mm / mid;
+        let want = thin.pressure_kpa(d).unwrap() * 1e3 * scale;
+        let err = (p - want) / want;
+        println!(
+            "Ogden, closed ends: D = {:.3} mm, p = {p} Pa vs closed form {want:.2} Pa ({:+.3} %)",
+            skin.outer_diameter_at_mid_length_m() * 1e3,
+            100.0 * err
+        );
+        assert!(err.abs() < 0.02, "{err}");
+        assert!(mid > mid_mm + 0.5, "inflated: {mid} mm");
+    }
+}

@@ -10,6 +10,7 @@
 //! - [`model_file`]: `model.toml` (effects in use) and `ledger.json`;
 //! - [`plot`]: SVG charts;
 //! - [`commands`]: the library side of `compare`, `diagnose`, `ledger`;
+//! - [`skin_inflation`]: the free runs as a skin test (`fit-skin --inflation`);
 //! - [`synth`]: synthetic experiments with hidden effects (tests, examples).
 
 pub mod calibrate;
@@ -19,5 +20,6 @@ pub mod diagnose;
 pub mod model_file;
 pub mod plot;
 pub mod residuals;
+pub mod skin_inflation;
 pub mod spikes;
 pub mod synth;
