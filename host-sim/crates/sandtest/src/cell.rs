@@ -83,10 +83,10 @@ pub struct Cell {
 const LOOSE_FILL: f64 = 0.30;
 
 impl Cell {
-    /// `count` grains placed at random without overlap in a cube at a
-    /// solid fraction of 0.30, seed `seed`; walls frictionless, the grains'
-    /// friction set to `friction` (the scenario deposits its bed
-    /// frictionless, so dense). `servo_strain_rate` (1/s) caps how fast a
+    /// `count` grains placed at random without overlap (seed `seed`),
+    /// filling 0.30 of the cube their centres can reach; walls
+    /// frictionless, the grains' friction set to `friction` (the scenario
+    /// deposits its bed frictionless, so dense). `servo_strain_rate` (1/s) caps how fast a
     /// servo may move its walls, as a strain rate of the cell.
     pub fn loose(
         grains: Grains,
