@@ -615,9 +615,24 @@ pub enum BenchCommand {
         #[arg(long, value_enum, default_value = "best")]
         simd: SimdChoice,
     },
+    /// The cost per particle-step as the bed grows: the benchmark's grains
+    /// settled once in a box periodic across, tiled k × k (20,000 grains
+    /// per tile), a timed packed phase at each size and worker count;
+    /// prints particle-steps/s and peak memory per particle.
+    Scaling {
+        /// Tiles per side, comma-separated (1: 20,000 grains, 3: 180,000,
+        /// 7: 980,000).
+        #[arg(long, value_delimiter = ',', default_values_t = [1usize, 3, 7])]
+        tiles: Vec<usize>,
+        /// Timed steps at each size.
+        #[arg(long, default_value_t = 500)]
+        steps: u64,
+        /// Worker thread counts, comma-separated.
+        #[arg(long, value_delimiter = ',', default_values_t = [1usize, 2])]
+        workers: Vec<usize>,
+    },
 }
 
-/// `bench dem --simd`.
 /// `fit-skin`'s arguments.
 #[derive(clap::Args)]
 pub struct FitSkinArgs {
@@ -643,6 +658,7 @@ pub struct FitSkinArgs {
     pub out: PathBuf,
 }
 
+/// `bench dem --simd`.
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum SimdChoice {
     // No doc comments: clap would print them as each value's help.

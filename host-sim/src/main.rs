@@ -73,6 +73,23 @@ fn run(cli: Cli, argv: Vec<String>) -> Result<()> {
             print!("{}", report.table());
             Ok(())
         }
+        Command::Bench {
+            what:
+                BenchCommand::Scaling {
+                    tiles,
+                    steps,
+                    workers,
+                },
+        } => {
+            let opts = dem::scaling::ScalingOptions {
+                tiles,
+                steps,
+                workers,
+            };
+            let rows = dem::scaling::run(&opts, |what| eprintln!("{what}"))?;
+            print!("{}", dem::scaling::table(&rows));
+            Ok(())
+        }
         Command::Emulate(a) => emulate(a),
         Command::Telemetry(a) => telemetry(a),
         Command::Compare { exp } => {

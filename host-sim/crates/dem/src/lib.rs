@@ -34,6 +34,7 @@ pub mod integrate;
 pub mod neighbour;
 pub mod particles;
 pub mod periodic;
+pub mod scaling;
 pub mod sink;
 pub mod walls;
 

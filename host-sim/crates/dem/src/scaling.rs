@@ -1,0 +1,241 @@
+//! How the cost per particle-step grows with the bed (`host-sim bench
+//! scaling`): the benchmark's grains ([`crate::benchmark`]) settled once in
+//! its 60 × 60 mm box made periodic across (x and y, the floor kept), then
+//! tiled k × k side by side. A periodic settled bed tiles seamlessly: every
+//! copy is the same settled bed, with the same density of contacts, so
+//! 20,000 grains become 180,000 at k = 3 and 980,000 at k = 7 without
+//! settling again. Each size runs a short untimed warm-up (the tiles'
+//! contact history starts afresh), then a timed packed phase.
+
+use std::fmt::Write as _;
+use std::time::Instant;
+
+use anyhow::{ensure, Context, Result};
+use nalgebra::Vector3;
+
+use crate::benchmark::{lattice, material, BOX_M, GRAVITY_M_S2, SEED};
+use crate::{self as dem, ContactSpec, Params, Particles, PeriodicAxis, State, Wall};
+
+/// Steps the 20,000-grain bed settles before it is tiled: the benchmark's
+/// warm-up and settling phases.
+pub const SETTLE_STEPS: u64 = 21_000;
+
+/// Untimed steps after tiling, while the tiles' contact history builds.
+pub const WARM_UP_STEPS: u64 = 200;
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct ScalingOptions {
+    /// Tiles per side (k: k² copies of the 20,000-grain bed).
+    pub tiles: Vec<usize>,
+    /// Timed steps at each size.
+    pub steps: u64,
+    /// Worker thread counts.
+    pub workers: Vec<usize>,
+}
+
+/// One size at one worker count.
+#[derive(Clone, Debug)]
+pub struct ScalingRow {
+    /// Particles.
+    pub particles: usize,
+    /// Worker threads.
+    pub workers: usize,
+    /// N × steps / wall time of the timed steps.
+    pub particle_steps_per_s: f64,
+    /// Mean particle–particle contacts per particle after the timed steps.
+    pub mean_contacts: f64,
+    /// The process' peak resident memory after this size, per particle
+    /// (bytes; Linux's VmHWM), when the system says.
+    pub peak_bytes_per_particle: Option<f64>,
+}
+
+/// The benchmark's parameters with the box periodic across, `tiles`
+/// boxes wide along x and y; the floor kept, gravity on.
+fn params(tiles: usize) -> Result<Params> {
+    let spec = ContactSpec {
+        restitution: 0.5,
+        friction: 0.25,
+        rolling_friction: 0.0,
+    };
+    let mat = material();
+    let mut p = Params::new(&mat, &spec, 1.5e-5)?;
+    p.gravity_m_s2 = Vector3::new(0.0, 0.0, -GRAVITY_M_S2);
+    p.skin_m = 2.0e-4;
+    p.walls.push(Wall::plane(
+        Vector3::zeros(),
+        Vector3::z(),
+        &mat,
+        &mat,
+        &spec,
+    )?);
+    let side = BOX_M * tiles as f64;
+    let axis = PeriodicAxis::new(0.0, side)?;
+    p.periodic = [Some(axis), Some(axis), None];
+    Ok(p)
+}
+
+/// The settled periodic 20,000-grain bed.
+pub fn settled_bed(steps: u64) -> Result<State> {
+    let params = params(1)?;
+    let mut particles = Particles::new();
+    let m = material();
+    for x in lattice(SEED) {
+        particles.push(
+            x,
+            Vector3::zeros(),
+            crate::benchmark::RADIUS_M,
+            m.density_kg_m3,
+        )?;
+    }
+    let mut state = State::new(particles);
+    for _ in 0..steps {
+        dem::step(&params, &mut state, &mut ())?;
+    }
+    Ok(state)
+}
+
+/// `bed` (periodic across one box) copied `tiles` × `tiles` times side by
+/// side, velocities kept.
+pub fn tiled(bed: &State, tiles: usize) -> Result<State> {
+    let p = &bed.particles;
+    let mut out = Particles::new();
+    for j in 0..tiles {
+        for i in 0..tiles {
+            let shift = Vector3::new(i as f64 * BOX_M, j as f64 * BOX_M, 0.0);
+            for k in 0..p.len() {
+                // Back into the one box first: positions may stand up to
+                // half the skin outside it between list builds.
+                let mut x = p.position_m[k];
+                x.x = x.x.rem_euclid(BOX_M);
+                x.y = x.y.rem_euclid(BOX_M);
+                out.push(
+                    x + shift,
+                    p.velocity_m_s[k],
+                    p.radius_m[k],
+                    material().density_kg_m3,
+                )?;
+            }
+        }
+    }
+    Ok(State::new(out))
+}
+
+/// Peak resident memory of this process (bytes), from /proc/self/status.
+fn peak_rss_bytes() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024.0)
+}
+
+/// Settles the bed once, then times each size (increasing) at each worker
+/// count.
+pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<ScalingRow>> {
+    ensure!(!opts.tiles.is_empty(), "no bed size given");
+    ensure!(
+        opts.tiles.iter().all(|&k| (1..=20).contains(&k)),
+        "tiles per side: 1 to 20"
+    );
+    ensure!(opts.steps >= 1, "at least one timed step");
+    ensure!(
+        !opts.workers.is_empty() && opts.workers.iter().all(|&w| w >= 1),
+        "worker counts must be at least 1"
+    );
+    let mut tiles = opts.tiles.clone();
+    tiles.sort_unstable();
+    tiles.dedup();
+    let most = opts.workers.iter().copied().max().unwrap_or(1);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(most)
+        .build()
+        .context("starting the worker threads")?;
+    progress("settling the 20,000-grain periodic bed");
+    let bed = pool.install(|| settled_bed(SETTLE_STEPS))?;
+    let mut rows = Vec::new();
+    for &k in &tiles {
+        let params = params(k)?;
+        for &w in &opts.workers {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(w)
+                .build()
+                .context("starting the worker threads")?;
+            let mut state = tiled(&bed, k)?;
+            let n = state.particles.len();
+            progress(&format!("{n} particles, {w} worker(s)"));
+            let (wall_s, contacts) = pool.install(|| -> Result<(f64, f64)> {
+                for _ in 0..WARM_UP_STEPS {
+                    dem::step(&params, &mut state, &mut ())?;
+                }
+                let t0 = Instant::now();
+                for _ in 0..opts.steps {
+                    dem::step(&params, &mut state, &mut ())?;
+                }
+                Ok((t0.elapsed().as_secs_f64(), state.mean_contacts()))
+            })?;
+            rows.push(ScalingRow {
+                particles: n,
+                workers: w,
+                particle_steps_per_s: n as f64 * opts.steps as f64 / wall_s,
+                mean_contacts: contacts,
+                peak_bytes_per_particle: peak_rss_bytes().map(|b| b / n as f64),
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// The rows as a table, with the cost per particle-step against the
+/// smallest size's at the same worker count.
+pub fn table(rows: &[ScalingRow]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "particles  workers  M particle-steps/s  ns per particle-step  vs smallest  contacts  peak B/particle"
+    );
+    for r in rows {
+        let first = rows
+            .iter()
+            .find(|x| x.workers == r.workers)
+            .map_or(r.particle_steps_per_s, |x| x.particle_steps_per_s);
+        let _ = writeln!(
+            s,
+            "{:>9}  {:>7}  {:>18.2}  {:>20.1}  {:>10.2}×  {:>8.3}  {:>15}",
+            r.particles,
+            r.workers,
+            r.particle_steps_per_s / 1e6,
+            1e9 / r.particle_steps_per_s,
+            first / r.particle_steps_per_s,
+            r.mean_contacts,
+            r.peak_bytes_per_particle
+                .map_or("-".to_string(), |b| format!("{b:.0}"))
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tiled_bed_is_the_bed_repeated() {
+        // A bed settled a little, tiled 2 × 2: four times the grains, each
+        // copy shifted by whole boxes, and the same contacts per grain
+        // (the periodic seams join copies as the period joined the bed).
+        let bed = settled_bed(1_500).unwrap();
+        let n = bed.particles.len();
+        let t = tiled(&bed, 2).unwrap();
+        assert_eq!(t.particles.len(), 4 * n);
+        let d = t.particles.position_m[3 * n + 17] - t.particles.position_m[17];
+        assert!((d.x - BOX_M).abs() < 1e-12 && (d.y - BOX_M).abs() < 1e-12 && d.z == 0.0);
+        let contacts = |s: &mut State, k: usize| {
+            dem::step(&params(k).unwrap(), s, &mut ()).unwrap();
+            s.mean_contacts()
+        };
+        let (mut one, mut four) = (tiled(&bed, 1).unwrap(), t);
+        let (c1, c4) = (contacts(&mut one, 1), contacts(&mut four, 2));
+        assert!(c1 > 0.1, "{c1} contacts per grain: the bed has not landed");
+        assert!((c1 - c4).abs() < 1e-12, "{c1} against {c4}");
+    }
+}
