@@ -70,6 +70,12 @@ pub fn lattice(seed: u64) -> Vec<Vector3<f64>> {
 /// The benchmark's parameters and initial state (the same contact
 /// equations as LIGGGHTS' `hertz tangential history`).
 pub fn problem() -> Result<(Params, State)> {
+    Ok((params()?, State::new(grains()?)))
+}
+
+/// The benchmark's parameters: contact law, time step, gravity, skin and
+/// the box's five walls (four sides, then the floor).
+pub fn params() -> Result<Params> {
     let mat = material();
     let spec = ContactSpec {
         restitution: 0.5,
@@ -91,11 +97,16 @@ pub fn problem() -> Result<(Params, State)> {
             .walls
             .push(Wall::plane(point, normal, &mat, &mat, &spec)?);
     }
+    Ok(params)
+}
+
+/// The benchmark's grains at rest on their jittered lattice.
+pub fn grains() -> Result<Particles> {
     let mut particles = Particles::new();
     for x in lattice(SEED) {
-        particles.push(x, Vector3::zeros(), RADIUS_M, mat.density_kg_m3)?;
+        particles.push(x, Vector3::zeros(), RADIUS_M, material().density_kg_m3)?;
     }
-    Ok((params, State::new(particles)))
+    Ok(particles)
 }
 
 /// Options of a benchmark run.

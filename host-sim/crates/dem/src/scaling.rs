@@ -13,8 +13,8 @@ use std::time::Instant;
 use anyhow::{ensure, Context, Result};
 use nalgebra::Vector3;
 
-use crate::benchmark::{lattice, material, BOX_M, GRAVITY_M_S2, SEED};
-use crate::{self as dem, ContactSpec, Params, Particles, PeriodicAxis, State, Wall};
+use crate::benchmark::{self, material, BOX_M};
+use crate::{self as dem, Params, Particles, PeriodicAxis, State, WallShape};
 
 /// Steps the 20,000-grain bed settles before it is tiled: the benchmark's
 /// warm-up and settling phases.
@@ -51,26 +51,12 @@ pub struct ScalingRow {
 }
 
 /// The benchmark's parameters with the box periodic across, `tiles`
-/// boxes wide along x and y; the floor kept, gravity on.
+/// boxes wide along x and y: its side walls gone, the floor kept.
 fn params(tiles: usize) -> Result<Params> {
-    let spec = ContactSpec {
-        restitution: 0.5,
-        friction: 0.25,
-        rolling_friction: 0.0,
-    };
-    let mat = material();
-    let mut p = Params::new(&mat, &spec, 1.5e-5)?;
-    p.gravity_m_s2 = Vector3::new(0.0, 0.0, -GRAVITY_M_S2);
-    p.skin_m = 2.0e-4;
-    p.walls.push(Wall::plane(
-        Vector3::zeros(),
-        Vector3::z(),
-        &mat,
-        &mat,
-        &spec,
-    )?);
-    let side = BOX_M * tiles as f64;
-    let axis = PeriodicAxis::new(0.0, side)?;
+    let mut p = benchmark::params()?;
+    p.walls
+        .retain(|w| matches!(w.shape, WallShape::Plane { normal, .. } if normal == Vector3::z()));
+    let axis = PeriodicAxis::new(0.0, BOX_M * tiles as f64)?;
     p.periodic = [Some(axis), Some(axis), None];
     Ok(p)
 }
@@ -78,17 +64,7 @@ fn params(tiles: usize) -> Result<Params> {
 /// The settled periodic 20,000-grain bed.
 pub fn settled_bed(steps: u64) -> Result<State> {
     let params = params(1)?;
-    let mut particles = Particles::new();
-    let m = material();
-    for x in lattice(SEED) {
-        particles.push(
-            x,
-            Vector3::zeros(),
-            crate::benchmark::RADIUS_M,
-            m.density_kg_m3,
-        )?;
-    }
-    let mut state = State::new(particles);
+    let mut state = State::new(benchmark::grains()?);
     for _ in 0..steps {
         dem::step(&params, &mut state, &mut ())?;
     }
