@@ -246,29 +246,18 @@ pub fn run(plan: &Plan, out: &Path, cases: &shard::Cases, progress: bool) -> Res
     Ok(Some(study))
 }
 
-/// Mean and sample standard deviation (0 for one value).
-fn mean_sd(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    if v.len() < 2 {
-        return (mean, 0.0);
-    }
-    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, var.sqrt())
-}
-
 /// A quantity over the seeds: mean and sample SD.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Stat {
     /// Mean.
     pub mean: f64,
-    /// Sample standard deviation (0 for one seed).
+    /// Sample standard deviation (0 for one seed, NaN for none).
     pub sd: f64,
 }
 
 impl Stat {
     fn of(v: &[f64]) -> Stat {
-        let (mean, sd) = mean_sd(v);
+        let (mean, sd) = burrow::stats::mean_sd(v);
         Stat { mean, sd }
     }
 }
