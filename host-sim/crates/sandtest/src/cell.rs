@@ -72,7 +72,7 @@ pub struct Cell {
     /// Largest wall speed of a servo (m/s).
     servo_speed_m_s: f64,
     /// Each axis' stress as its servo sees it: low-passed over
-    /// 50 steps (Pa).
+    /// [`SERVO_FILTER_STEPS`] (Pa).
     servo_stress_pa: [f64; 3],
     /// Each axis' current inward wall speed (m/s).
     inward_m_s: [f64; 3],
@@ -277,7 +277,7 @@ impl Cell {
     /// Advances `steps` steps with each axis as `axes` says.
     ///
     /// A servo reads its axis' stress low-passed and changes its walls'
-    /// speed by at most a 200th of the largest per step:
+    /// speed by at most [`SERVO_RAMP_STEPS`]-th of the largest per step:
     /// the walls' speed enters the contacts' damping, so a servo acting on
     /// the raw stress at full speed chatters between pushing and pulling
     /// each step, each reading a load its own motion made.
@@ -325,11 +325,11 @@ impl Cell {
 }
 
 /// Steps over which a servo low-passes its axis' stress.
-const SERVO_FILTER_STEPS: f64 = 50.0;
+pub const SERVO_FILTER_STEPS: f64 = 50.0;
 
 /// Steps a servo takes to go from rest to its largest speed.
-const SERVO_RAMP_STEPS: f64 = 200.0;
+pub const SERVO_RAMP_STEPS: f64 = 200.0;
 
 /// Servo gain: the wall speed saturates when the stress is off by 1/gain
 /// of its target.
-const SERVO_GAIN: f64 = 4.0;
+pub const SERVO_GAIN: f64 = 4.0;
