@@ -293,13 +293,7 @@ fn chart_svg(
                 ))
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(plot_err)?;
+        plot::draw_legend(&mut chart, SeriesLabelPosition::UpperLeft, 0.8)?;
         root.present().map_err(plot_err)?;
     }
     Ok(svg)

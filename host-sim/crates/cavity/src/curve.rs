@@ -244,13 +244,7 @@ pub fn plot_svg(title: &str, curves: &[(&str, &Curve)]) -> Result<String> {
                 .label(*name)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(plot_err)?;
+        plot::draw_legend(&mut chart, SeriesLabelPosition::UpperLeft, 0.8)?;
         root.present().map_err(plot_err)?;
     }
     Ok(svg)

@@ -171,12 +171,7 @@ fn pressure_svg(curves: &[(f64, Vec<(f64, f64)>)]) -> Result<String> {
                 .label(format!("h = {h:.0} mm"))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color));
         }
-        chart
-            .configure_series_labels()
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.8))
-            .draw()
-            .map_err(plot_err)?;
+        plot::draw_legend(&mut chart, SeriesLabelPosition::MiddleRight, 0.8)?;
         root.present().map_err(plot_err)?;
     }
     Ok(svg)

@@ -462,13 +462,7 @@ impl Study {
                 })
                 .collect();
             self.draw_by_radius(&mut chart, &curves)?;
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::LowerRight)
-                .draw()
-                .map_err(plot_err)?;
+            plot::draw_legend(&mut chart, SeriesLabelPosition::LowerRight, 0.8)?;
             let ev: Vec<f64> = self
                 .triaxial
                 .iter()
@@ -557,13 +551,7 @@ impl Study {
                     .label(format!("Jaky 1 − sin φ_cv ({p} kPa triaxial)"))
                     .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()
-                .map_err(plot_err)?;
+            plot::draw_legend(&mut chart, SeriesLabelPosition::UpperRight, 0.8)?;
             root.present().map_err(plot_err)?;
         }
         Ok(svg)

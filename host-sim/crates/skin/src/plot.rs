@@ -131,13 +131,7 @@ where
         .map_err(plot_err)?
         .label("free runs, bin means")
         .legend(|(x, y)| Circle::new((x + 9, y), 3, BLACK.filled()));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_err)?;
+    plot::draw_legend(&mut chart, SeriesLabelPosition::UpperLeft, 0.85)?;
     Ok(())
 }
 
@@ -232,12 +226,6 @@ where
             "data (predicted)"
         })
         .legend(move |(x, y)| Circle::new((x + 9, y), 3, style));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(plot_err)?;
+    plot::draw_legend(&mut chart, SeriesLabelPosition::UpperLeft, 0.85)?;
     Ok(())
 }

@@ -94,13 +94,7 @@ pub fn chart_svg(
                     .legend(move |(x, y)| Circle::new((x + 9, y), 3, colour.filled()));
             }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(plot_err)?;
+        plot::draw_legend(&mut chart, SeriesLabelPosition::UpperLeft, 0.85)?;
         root.present().map_err(plot_err)?;
     }
     Ok(svg)
