@@ -21,6 +21,34 @@ fn absolute_rest_kpa(depth_mm: f64) -> f64 {
     101.3 + 1000.0 * 9.8 * (150.0 + depth_mm) * 1e-6
 }
 
+/// The box a wall-friction folder states (mm): width and length.
+const BOX_WIDTH_MM: f64 = 40.0;
+/// See [`BOX_WIDTH_MM`].
+const BOX_LENGTH_MM: f64 = 200.0;
+
+/// Hydraulic radius (mm) of the box: its area over its perimeter.
+fn box_hydraulic_radius_mm() -> f64 {
+    BOX_WIDTH_MM * BOX_LENGTH_MM / (2.0 * (BOX_WIDTH_MM + BOX_LENGTH_MM))
+}
+
+/// The volume every cycle pumps (mL).
+const FILL_ML: f64 = 5.0;
+
+/// The error function (Abramowitz & Stegun 7.1.26, |error| < 1.5e-7).
+fn erf(x: f64) -> f64 {
+    let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
+    let poly = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let y = 1.0 - poly * (-x * x).exp();
+    if x >= 0.0 {
+        y
+    } else {
+        -y
+    }
+}
+
 /// The hidden effects this truth knows.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Hidden {
@@ -34,8 +62,27 @@ pub enum Hidden {
     SensorOffset(f64),
     /// The transducer's gain is off.
     SensorGain(f64),
-    /// The reading lags by a first-order time constant (s).
+    /// The reading lags by a first-order time constant (s): τ·dy/dt =
+    /// x − y, integrated exactly for a reading that is linear between
+    /// samples.
     SensorLag(f64),
+    /// Seal friction of the syringe's piston (N), seen where the pressure
+    /// is the piston's force over the bore (the rig then says
+    /// `pressure_source = "piston_force"`): Coulomb, F·sign(flow).
+    PistonFriction(f64),
+    /// A viscous skin: a Maxwell branch in parallel with the elastic
+    /// tube, carrying a fraction `g` of every change of the elastic
+    /// pressure and relaxing with time constant τ (s), (g, τ).
+    SkinViscoelastic(f64, f64),
+    /// Stress softening of a filled rubber (Ogden & Roxburgh 1999): below
+    /// the largest strain energy the run has seen, W_max, the skin's
+    /// pressure is times η = 1 − erf((W_max − W)/m)/r, W = λ² + λ⁻² − 2
+    /// at λ = D/D0; (1/r, m).
+    Mullins(f64, f64),
+    /// A narrow box whose walls carry part of the sand's weight
+    /// (Janssen): wall friction × lateral ratio μ_w·K; the rig then
+    /// states a `[container]` of 40 × 200 mm.
+    WallFriction(f64),
     /// Outside any library: the zero drifts with the lab's temperature,
     /// a·sin(2πt/T) (kPa, s).
     Drift(f64, f64),
@@ -43,8 +90,8 @@ pub enum Hidden {
 
 impl Hidden {
     /// The library effect and primary parameter it should be named as, with
-    /// the true value; `None` for one outside the library.
-    pub fn library(self) -> Option<(&'static str, &'static str, f64)> {
+    /// the true value in `truth`'s rig; `None` for one outside the library.
+    pub fn library(self, truth: &Truth) -> Option<(&'static str, &'static str, f64)> {
         match self {
             Hidden::Leak(k) => Some(("leak", "ml_per_s_per_kpa", k)),
             Hidden::TrappedAir(v) => Some(("trapped_air", "gas_volume_ml", v)),
@@ -52,9 +99,49 @@ impl Hidden {
             Hidden::SensorOffset(c) => Some(("sensor_offset", "offset_kpa", c)),
             Hidden::SensorGain(g) => Some(("sensor_gain", "gain", g)),
             Hidden::SensorLag(tau) => Some(("sensor_lag", "lag_s", tau)),
+            Hidden::PistonFriction(f) => Some(("piston_friction", "friction_n", f)),
+            Hidden::SkinViscoelastic(g, _) => Some(("skin_viscoelasticity", "fraction", g)),
+            // The library softens by r·(1 − x), x = (D − D0)/(D_max − D0);
+            // this law by s(x) = erf((W_max − W)/m)/r, another shape. The
+            // true r is the least-squares projection of s onto r·(1 − x)
+            // over the unloading, D_max that of the rig's 5 mL fill.
+            Hidden::Mullins(inv_r, m) => {
+                let w = |d: f64| {
+                    let l2 = (d / truth.d0_mm).powi(2);
+                    l2 + 1.0 / l2 - 2.0
+                };
+                let d_max = truth.diameter_mm(FILL_ML);
+                let (mut num, mut den) = (0.0, 0.0);
+                for k in 0..=200 {
+                    let x = k as f64 / 200.0;
+                    let d = truth.d0_mm + x * (d_max - truth.d0_mm);
+                    let softening = inv_r * erf((w(d_max) - w(d)) / m);
+                    num += softening * (1.0 - x);
+                    den += (1.0 - x) * (1.0 - x);
+                }
+                Some(("mullins_softening", "fraction", num / den))
+            }
+            // The library's slot of width B sees 2·μk/B; a box W × L
+            // has the hydraulic radius R = WL/(2(W + L)) and sees μK/R:
+            // μk = μK·W/(2R).
+            Hidden::WallFriction(mu_k) => Some((
+                "wall_arching",
+                "mu_k",
+                mu_k * BOX_WIDTH_MM / (2.0 * box_hydraulic_radius_mm()),
+            )),
             Hidden::Drift(..) => None,
         }
     }
+}
+
+/// What the skin remembers from step to step: the largest strain
+/// energy of the run, the elastic pressure and the Maxwell branch's
+/// overstress at the last step (kPa).
+#[derive(Clone, Copy, Debug, Default)]
+struct SkinMemory {
+    w_max: f64,
+    elastic_kpa: f64,
+    overstress_kpa: f64,
 }
 
 /// The outside truth's set-up.
@@ -151,6 +238,54 @@ impl Truth {
         p
     }
 
+    /// The depth (mm) whose overburden the sand feels at cover `h_mm`:
+    /// `h_mm` in a wide tank; in the box of a wall-friction folder,
+    /// Janssen's σv = γ'R/(μK)·(1 − exp(−μK·h/R)) over γ'.
+    fn janssen_depth_mm(&self, h_mm: f64) -> f64 {
+        match self.hidden.iter().find_map(|h| match h {
+            Hidden::WallFriction(mu_k) => Some(*mu_k),
+            _ => None,
+        }) {
+            Some(mu_k) if mu_k > 0.0 => {
+                let r = box_hydraulic_radius_mm();
+                r / mu_k * (1.0 - (-mu_k * h_mm / r).exp())
+            }
+            _ => h_mm,
+        }
+    }
+
+    /// The skin's pressure (kPa) at diameter `d_mm` a step of `dt_s`
+    /// after the state `mem`, with the hidden skin effects (a Maxwell
+    /// branch, stress softening) on the elastic tube; with the state the
+    /// step ends in.
+    fn skin_with_memory_kpa(&self, d_mm: f64, dt_s: f64, mem: SkinMemory) -> (f64, SkinMemory) {
+        let elastic = self.skin_kpa(d_mm);
+        let l2 = (d_mm / self.d0_mm).powi(2);
+        let w = l2 + 1.0 / l2 - 2.0;
+        let mut next = SkinMemory {
+            w_max: mem.w_max.max(w),
+            elastic_kpa: elastic,
+            overstress_kpa: mem.overstress_kpa,
+        };
+        let mut p = elastic;
+        for h in &self.hidden {
+            match *h {
+                Hidden::Mullins(inv_r, m) => {
+                    p *= 1.0 - inv_r * erf((next.w_max - w).max(0.0) / m);
+                }
+                Hidden::SkinViscoelastic(g, tau) => {
+                    // Midpoint rule on dq/dt = g·dp_el/dt − q/τ: the
+                    // increment relaxes over half the step.
+                    let decay = (-dt_s / tau).exp();
+                    next.overstress_kpa = mem.overstress_kpa * decay
+                        + g * (elastic - mem.elastic_kpa) * (-0.5 * dt_s / tau).exp();
+                }
+                _ => {}
+            }
+        }
+        (p + next.overstress_kpa, next)
+    }
+
     /// The sand's push (kPa) at diameter `d_mm` and depth `h_mm`, with its
     /// own memory of the cycle's peak `(d_peak, p_peak)`.
     fn sand_kpa(&self, d_mm: f64, h_mm: f64, peak: &mut (f64, f64)) -> f64 {
@@ -159,7 +294,7 @@ impl Truth {
         }
         // Quartz sand, porosity 0.42, in fresh water: γ' in kPa/mm.
         let gamma = (2650.0 - 1000.0) * 9.8 * (1.0 - 0.42) * 1e-6;
-        let sigma = gamma * 50.0 * (h_mm / 50.0).powf(0.85);
+        let sigma = gamma * 50.0 * (self.janssen_depth_mm(h_mm) / 50.0).powf(0.85);
         let (k0, kp, rise) = (0.42, 3.6, 1.6);
         let loading =
             sigma * (k0 + (kp - k0) * (1.0 - (-(d_mm - self.d0_mm).max(0.0) / rise).exp()));
@@ -225,12 +360,31 @@ impl Truth {
                 "[skin]\nc10_kpa = {c10}\nc20_kpa = {c20}\nc30_kpa = {c30}\n\n"
             );
         }
+        if self
+            .hidden
+            .iter()
+            .any(|h| matches!(h, Hidden::WallFriction(_)))
+        {
+            let _ = write!(
+                s,
+                "[container]\nwidth_mm = {BOX_WIDTH_MM}\nlength_mm = {BOX_LENGTH_MM}\n\n"
+            );
+        }
+        let source = if self
+            .hidden
+            .iter()
+            .any(|h| matches!(h, Hidden::PistonFriction(_)))
+        {
+            "piston_force"
+        } else {
+            "line_sensor"
+        };
         let _ = write!(
             s,
             "[sand]\ngrain_radius_mm = 0.2\ngrain_density_kg_m3 = 2650\nporosity = 0.42\nfriction = 0.5\n\n\
              [fluid]\ndensity_kg_m3 = 1000\nwater_above_sand_mm = 150\n\n\
              [pump]\nsyringe_bore_mm = {}\n\n\
-             [measurement]\npressure_source = \"line_sensor\"\npressure_noise_kpa = {}\n",
+             [measurement]\npressure_source = \"{source}\"\npressure_noise_kpa = {}\n",
             self.bore_mm, self.noise_kpa
         );
         s
@@ -249,12 +403,19 @@ impl Truth {
             let id = format!("lab{}_{}mm", k + 1, depth);
             let dt = 0.02;
             let mut t = 0.0;
-            let (mut lost, mut lagged) = (0.0f64, None::<f64>);
+            let mut lost = 0.0f64;
+            // The lag's last input and output.
+            let mut lagged: Option<(f64, f64)> = None;
+            let mut skin = SkinMemory {
+                w_max: 0.0,
+                elastic_kpa: 0.0,
+                overstress_kpa: 0.0,
+            };
             let mut peak;
             let (mut prev_v, mut prev_t) = (0.0, -dt);
             let phase = 0.7 * k as f64;
             for &q in flows {
-                let ramp = 5.0 / q;
+                let ramp = FILL_ML / q;
                 let period = 2.0 * ramp + 1.5 + 1.0;
                 let mut tc = 0.0;
                 peak = (self.d0_mm, 0.0);
@@ -262,14 +423,15 @@ impl Truth {
                     let v: f64 = if tc < ramp {
                         q * tc
                     } else if tc < ramp + 1.5 {
-                        5.0
+                        FILL_ML
                     } else if tc < 2.0 * ramp + 1.5 {
-                        5.0 - q * (tc - ramp - 1.5)
+                        FILL_ML - q * (tc - ramp - 1.5)
                     } else {
                         0.0
                     };
                     let v = (v * 1e3).round() / 1e3;
-                    let flow = (v - prev_v) / (t - prev_t);
+                    let step_s = t - prev_t;
+                    let flow = (v - prev_v) / step_s;
                     (prev_v, prev_t) = (v, t);
                     // The internal pressure with the line's air and the
                     // leak, solved by bisection.
@@ -278,39 +440,62 @@ impl Truth {
                         _ => None,
                     });
                     let mut peak_try = peak;
-                    let solve = |p: f64, peak_try: &mut (f64, f64)| {
+                    let mut skin_try = skin;
+                    let solve = |p: f64, peak_try: &mut (f64, f64), skin_try: &mut SkinMemory| {
                         let held = air.map_or(0.0, |v0| {
                             let p0 = absolute_rest_kpa(*depth);
                             v0 - v0 * p0 / (p0 + p)
                         });
                         let d = self.diameter_mm(v - lost - held);
                         *peak_try = peak;
-                        self.skin_kpa(d) + self.sand_kpa(d, *depth, peak_try) - p
+                        let (skin_kpa, next) = self.skin_with_memory_kpa(d, step_s, skin);
+                        *skin_try = next;
+                        skin_kpa + self.sand_kpa(d, *depth, peak_try) - p
                     };
                     let (mut lo, mut hi) = (-20.0, 200.0);
                     for _ in 0..80 {
                         let mid = 0.5 * (lo + hi);
-                        if solve(mid, &mut peak_try) > 0.0 {
+                        if solve(mid, &mut peak_try, &mut skin_try) > 0.0 {
                             lo = mid;
                         } else {
                             hi = mid;
                         }
                     }
                     let p = 0.5 * (lo + hi);
-                    solve(p, &mut peak_try);
+                    solve(p, &mut peak_try, &mut skin_try);
                     peak = peak_try;
+                    skin = skin_try;
                     let mut reading = p;
                     for h in &self.hidden {
                         match *h {
                             Hidden::Leak(kl) => lost += kl * p.max(0.0) * dt,
                             Hidden::LineLoss(r) => reading += r * flow,
-                            Hidden::SensorLag(tau) => {
-                                let prev = lagged.unwrap_or(reading);
-                                let next = prev + (reading - prev) * (dt / tau).min(1.0);
-                                lagged = Some(next);
-                                reading = next;
+                            Hidden::PistonFriction(f) => {
+                                let area_mm2 = std::f64::consts::PI * 0.25 * self.bore_mm.powi(2);
+                                let sign = if flow > 1e-9 {
+                                    1.0
+                                } else if flow < -1e-9 {
+                                    -1.0
+                                } else {
+                                    0.0
+                                };
+                                reading += 1000.0 * f / area_mm2 * sign;
                             }
                             _ => {}
+                        }
+                    }
+                    // The transducer lags what the line carries.
+                    for h in &self.hidden {
+                        if let Hidden::SensorLag(tau) = *h {
+                            // Exact for an input linear between samples
+                            // (first-order hold): a ramp comes out τ late.
+                            let (x0, y0) = lagged.unwrap_or((reading, reading));
+                            let e = (-step_s / tau).exp();
+                            let next = e * y0
+                                + (1.0 - e) * x0
+                                + (reading - x0) * (1.0 - tau / step_s * (1.0 - e));
+                            lagged = Some((reading, next));
+                            reading = next;
                         }
                     }
                     for h in &self.hidden {
