@@ -561,6 +561,25 @@ pub struct CavityArgs {
     /// duration (avg_TAG_segN.dat; every segment, in any order).
     #[arg(long, num_args = 1..)]
     pub peer_avg: Vec<PathBuf>,
+    /// Add the continuum estimate (a cylindrical cavity in a Mohr–Coulomb
+    /// medium, small and large strain) for this friction angle (degrees,
+    /// e.g. φ measured by `sand-test`); writes theory.csv and theory.svg.
+    #[arg(long, requires = "dilatancy_deg")]
+    pub friction_deg: Option<f64>,
+    /// The estimate's dilatancy angle ψ (degrees).
+    #[arg(long, requires = "friction_deg")]
+    pub dilatancy_deg: Option<f64>,
+    /// The estimate's shear modulus of the bed (kPa); default: the
+    /// Hertz–Mindlin effective-medium value at the run's p_e at rest.
+    #[arg(long, requires = "friction_deg")]
+    pub shear_modulus_kpa: Option<f64>,
+    /// The estimate's Poisson's ratio of the bed.
+    #[arg(long, default_value_t = 0.3)]
+    pub poisson: f64,
+    /// Take the DEM curve from this pe.csv of an earlier run instead of
+    /// running the DEM (with --friction-deg: the estimate alone).
+    #[arg(long, requires = "friction_deg")]
+    pub dem_curve: Option<PathBuf>,
 }
 
 /// `host-sim solver-sand` arguments.

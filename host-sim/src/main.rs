@@ -319,6 +319,11 @@ fn sand_test(a: args::SandTestArgs, part: Part, command: Vec<String>) -> Result<
 fn cavity(a: args::CavityArgs) -> Result<()> {
     let problem = cavity::Cavity::default();
     let bed = cavity::Bed::read(&a.bed)?;
+    if let Some(path) = &a.dem_curve {
+        let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+        let dem = cavity::Curve::parse_csv(&path.display().to_string(), &bytes)?;
+        return cavity_estimate(&a, &problem, &bed, &dem);
+    }
     let schedule = cavity::Schedule::new(a.expansion_s, problem.relax_s, problem.dt_s)?;
     let peer = if a.peer_avg.is_empty() {
         None
@@ -359,6 +364,52 @@ fn cavity(a: args::CavityArgs) -> Result<()> {
         println!(
             "largest difference over the expansion: {:.1} %",
             c.worst_percent
+        );
+    }
+    if a.friction_deg.is_some() {
+        return cavity_estimate(&a, &problem, &bed, &ours);
+    }
+    println!("wrote {}", a.out.display());
+    Ok(())
+}
+
+/// `cavity --friction-deg …`: the continuum estimate beside the DEM curve.
+fn cavity_estimate(
+    a: &args::CavityArgs,
+    problem: &cavity::Cavity,
+    bed: &cavity::Bed,
+    dem: &cavity::Curve,
+) -> Result<()> {
+    let (Some(friction_deg), Some(dilatancy_deg)) = (a.friction_deg, a.dilatancy_deg) else {
+        anyhow::bail!("--dem-curve needs --friction-deg and --dilatancy-deg");
+    };
+    let e = cavity::write_estimate(
+        &a.out,
+        problem,
+        bed,
+        dem,
+        cavity::EstimateInput {
+            friction_deg,
+            dilatancy_deg,
+            shear_modulus_kpa: a.shear_modulus_kpa,
+            poisson: a.poisson,
+        },
+    )?;
+    println!(
+        "continuum estimate: φ {friction_deg}°, ψ {dilatancy_deg}°, ν {}, p0 {:.4} kPa (the run's at rest), G {:.1} kPa ({}; far field: solid fraction {:.3}, {:.2} contacts per sphere), G/p0 {:.0}",
+        a.poisson,
+        e.theory.in_situ_kpa,
+        e.theory.soil.shear_modulus_kpa,
+        if e.shear_modulus_given { "given" } else { "Hertz–Mindlin effective medium, an upper estimate" },
+        e.far_field.solid_fraction,
+        e.far_field.coordination,
+        e.theory.rigidity_index()
+    );
+    println!("percent  D (mm)  DEM (kPa)  large strain (kPa)  small strain (kPa)");
+    for r in &e.rows {
+        println!(
+            "{:>7}  {:>6.3}  {:>9.4}  {:>18.4}  {:>18.4}",
+            r[0], r[1], r[2], r[3], r[4]
         );
     }
     println!("wrote {}", a.out.display());

@@ -109,6 +109,38 @@ impl Curve {
         Curve::new(windows, schedule, cavity)
     }
 
+    /// Reads a `pe.csv` that [`Curve::csv`] wrote (file `name` for
+    /// errors): the at-rest row and the 100 windows.
+    pub fn parse_csv(name: &str, bytes: &[u8]) -> Result<Curve> {
+        let mut table = datafile::Table::parse(name, bytes)?;
+        let (pc, dc, ec) = (
+            table.require("percent")?,
+            table.require("d_mm")?,
+            table.require("pe_kpa")?,
+        );
+        let mut rows = Vec::new();
+        for row in table.rows() {
+            let row = row?;
+            rows.push((row.number(pc)?, row.number(dc)?, row.number(ec)?));
+        }
+        anyhow::ensure!(
+            rows.len() == 101 && rows.iter().enumerate().all(|(k, r)| r.0 == k as f64),
+            "{name}: expected the rows of percent 0, 1, …, 100"
+        );
+        Ok(Curve {
+            at_rest_kpa: rows[0].2,
+            d0_mm: rows[0].1,
+            expansion: rows[1..]
+                .iter()
+                .map(|&(_, d_mm, pe_kpa)| Window {
+                    end_step: 0,
+                    d_mm,
+                    pe_kpa,
+                })
+                .collect(),
+        })
+    }
+
     /// `pe.csv`: `percent,d_mm,pe_kpa`, the at-rest value as percent 0,
     /// then each 1 % window, `percent` its end.
     pub fn csv(&self) -> String {

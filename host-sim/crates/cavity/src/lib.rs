@@ -11,13 +11,16 @@
 //! - [`bed`]: the shared beds (`id,x,y,z,radius`, m);
 //! - [`problem`]: the box, the grains, the contact law and the schedule,
 //!   as the DEM's parameters;
-//! - [`curve`]: the 1 % windows, `pe.csv`, the plot and the comparison.
+//! - [`curve`]: the 1 % windows, `pe.csv`, the plot and the comparison;
+//! - [`theory`]: the continuum estimate, a cylindrical cavity in a
+//!   Mohr–Coulomb medium (small and large strain).
 
 pub mod bed;
 pub mod curve;
 pub mod problem;
+pub mod theory;
 
-pub use bed::Bed;
+pub use bed::{Bed, Packing};
 pub use curve::{compare, Comparison, Curve, Window};
 pub use problem::{at_rest_kpa, run, Cavity, Schedule};
 
@@ -106,4 +109,143 @@ pub fn run_with_progress(cavity: &Cavity, bed: &Bed, expansion_s: f64) -> Result
     })?;
     bar.finish_and_clear();
     Ok(curve)
+}
+
+/// What the continuum estimate of a run is made from: the medium's angles
+/// (measured by `host-sim sand-test`), its stiffness, and the run.
+#[derive(Clone, Copy, Debug)]
+pub struct EstimateInput {
+    /// Friction angle φ (degrees).
+    pub friction_deg: f64,
+    /// Dilatancy angle ψ (degrees).
+    pub dilatancy_deg: f64,
+    /// Shear modulus G of the bed (kPa); `None`: the Hertz–Mindlin
+    /// effective-medium value at p0 ([`theory::hertz_mindlin_shear_modulus_kpa`]),
+    /// an upper estimate.
+    pub shear_modulus_kpa: Option<f64>,
+    /// Poisson's ratio of the bed (−).
+    pub poisson: f64,
+}
+
+/// The continuum estimate beside a DEM run, at rest and every 10 %.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Estimate {
+    /// The medium and p0 (the run's p_e at rest) it was made for.
+    pub theory: theory::CavityTheory,
+    /// The packing of the far field the default G is made from.
+    pub far_field: Packing,
+    /// Whether G was given (else the effective-medium estimate).
+    pub shear_modulus_given: bool,
+    /// Rows: `[percent, D (mm), DEM p_e, large-strain p, small-strain p]`
+    /// (kPa).
+    pub rows: Vec<[f64; 5]>,
+}
+
+/// The continuum estimate of the problem for the run `dem` in `bed`:
+/// p0 = the run's p_e at rest, G as `input` says; writes `DIR/theory.csv`
+/// (`percent,d_mm,dem_kpa,large_strain_kpa,small_strain_kpa`, at rest and
+/// every 10 %) and `DIR/theory.svg` (the three curves).
+pub fn write_estimate(
+    dir: &Path,
+    problem: &Cavity,
+    bed: &Bed,
+    dem: &Curve,
+    input: EstimateInput,
+) -> Result<Estimate> {
+    // The far field beside the cylinder: 4 mm from the side wall to 6 mm
+    // short of the cylinder's final radius, 5 mm above the floor to 5 mm
+    // below the cylinder's axis (the bed's top is not known here).
+    let far_field = bed.packing(
+        nalgebra::Vector3::new(0.004, f64::NEG_INFINITY, 0.005),
+        nalgebra::Vector3::new(
+            problem.axis_xz_m[0] - problem.radius_m[1] - 0.006,
+            f64::INFINITY,
+            problem.axis_xz_m[1] - 0.005,
+        ),
+        problem.period_m,
+    );
+    let p0 = dem.at_rest_kpa;
+    let g = match input.shear_modulus_kpa {
+        Some(g) => g,
+        None => {
+            let m = &problem.grain;
+            theory::hertz_mindlin_shear_modulus_kpa(
+                m.youngs_modulus_pa / (2.0 * (1.0 + m.poisson_ratio)) / 1e3,
+                m.poisson_ratio,
+                far_field.coordination,
+                1.0 - far_field.solid_fraction,
+                p0,
+            )
+        }
+    };
+    let t = theory::CavityTheory::new(
+        theory::Soil {
+            friction_deg: input.friction_deg,
+            dilatancy_deg: input.dilatancy_deg,
+            shear_modulus_kpa: g,
+            poisson: input.poisson,
+        },
+        p0,
+    )?;
+    let a_end = problem.radius_m[1] / problem.radius_m[0];
+    let large = t.large_strain(a_end * 1.001, 2e-4, 100);
+    let small = t.small_strain_curve(a_end * 1.001, 2000);
+    let at = |curve: &[theory::TheoryPoint], d_mm: f64| {
+        theory::CavityTheory::pressure_at(curve, d_mm / dem.d0_mm).unwrap_or(f64::NAN)
+    };
+    let as_curve = |curve: &[theory::TheoryPoint]| Curve {
+        at_rest_kpa: p0,
+        d0_mm: dem.d0_mm,
+        expansion: dem
+            .expansion
+            .iter()
+            .map(|w| Window {
+                end_step: 0,
+                d_mm: w.d_mm,
+                pe_kpa: at(curve, w.d_mm),
+            })
+            .collect(),
+    };
+    let mut rows = vec![[0.0, dem.d0_mm, p0, p0, p0]];
+    for p in (10..=100).step_by(10) {
+        let w = dem.expansion[p - 1];
+        rows.push([
+            p as f64,
+            w.d_mm,
+            w.pe_kpa,
+            at(&large, w.d_mm),
+            at(&small, w.d_mm),
+        ]);
+    }
+    std::fs::create_dir_all(dir)?;
+    let mut csv = String::from("percent,d_mm,dem_kpa,large_strain_kpa,small_strain_kpa\n");
+    for r in &rows {
+        csv += &format!("{},{:.4},{:.6},{:.6},{:.6}\n", r[0], r[1], r[2], r[3], r[4]);
+    }
+    datafile::write_atomic(&dir.join("theory.csv"), csv.as_bytes())?;
+    let title = format!(
+        "DEM and cavity-expansion theory (φ {:.1}°, ψ {:.1}°, G/p0 {:.0})",
+        input.friction_deg,
+        input.dilatancy_deg,
+        t.rigidity_index()
+    );
+    let (l, s) = (as_curve(&large), as_curve(&small));
+    datafile::write_atomic(
+        &dir.join("theory.svg"),
+        curve::plot_svg(
+            &title,
+            &[
+                ("this DEM", dem),
+                ("large strain", &l),
+                ("small strain", &s),
+            ],
+        )?
+        .as_bytes(),
+    )?;
+    Ok(Estimate {
+        theory: t,
+        far_field,
+        shear_modulus_given: input.shear_modulus_kpa.is_some(),
+        rows,
+    })
 }
