@@ -17,7 +17,6 @@
 //! [`StoreMutex`]). Every decision is made by
 //! [`crate::controller::Controller::step`] in the control task.
 
-pub mod busy_wait;
 pub mod control;
 pub mod link;
 mod log;
