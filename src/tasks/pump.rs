@@ -61,8 +61,18 @@ where
     let mut last_refusal: Option<PumpError> = None;
     loop {
         let seen = pump.sync();
+        let running = pump.running();
+        // At rest there is no pulse to wait for (`wait_pulse` would return
+        // at once): the command or the idle poll wakes the task.
+        let pulse = async {
+            if running {
+                pump.wait_pulse(seen).await;
+            } else {
+                core::future::pending::<()>().await;
+            }
+        };
         let idle = Timer::after(Duration::from_millis(IDLE_POLL_MS));
-        match select3(shared.pump_command.wait(), pump.wait_pulse(seen), idle).await {
+        match select3(shared.pump_command.wait(), pulse, idle).await {
             Either3::First(new) => {
                 command = new;
                 apply(&mut pump, &mut sequencer, command);

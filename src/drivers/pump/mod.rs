@@ -30,7 +30,7 @@ pub use config::{
 pub use debounce::{EndStopDebounce, END_STOP_DEBOUNCE_US};
 pub use pulses::{SimStepTimer, StepPulses, MAX_STEP_PERIOD_US, MIN_STEP_PERIOD_US};
 pub use ramp::{Plan, StepPlanner, ACCEL_ML_PER_S2};
-pub use sequencer::StepSequencer;
+pub use sequencer::{StepDrive, StepSequencer};
 
 /// STEP high time (µs): the timer's pulse width, 3 µs so that the
 /// DRV8825's 1.9 µs holds even with the HSI clock several per cent slow.

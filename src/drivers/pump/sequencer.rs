@@ -11,6 +11,69 @@ use embedded_hal::digital::{InputPin, OutputPin};
 
 use super::{Direction, Plan, PumpError, StepPlanner, StepPulses, SyringePump};
 
+/// What the sequencer drives: a pump whose steps come from a timer
+/// ([`SyringePump`] on the board and the virtual board; the emulator's
+/// plant pump, on the same timer model).
+pub trait StepDrive {
+    /// Counts the pulses completed in this run into the position and
+    /// returns their number ([`SyringePump::sync`]).
+    fn sync(&mut self) -> u32;
+    /// True while the timer runs.
+    fn running(&self) -> bool;
+    /// `Err` when the end-stop ahead reads triggered or cannot be read
+    /// ([`SyringePump::check_ahead`]).
+    fn check_ahead(&mut self, direction: Direction) -> Result<(), PumpError>;
+    /// Starts a run ([`SyringePump::start`]).
+    fn start(
+        &mut self,
+        direction: Direction,
+        first_us: u32,
+        second_us: u32,
+    ) -> Result<(), PumpError>;
+    /// Queues the next period ([`StepPulses::queue_period`]).
+    fn queue_period(&mut self, period_us: u32);
+    /// Ends the run after the pulse in progress ([`StepPulses::finish`]).
+    fn finish(&mut self);
+    /// Stops at once ([`StepPulses::stop`]).
+    fn stop(&mut self);
+}
+
+impl<S, D, E, Ee, Ef> StepDrive for SyringePump<S, D, E, Ee, Ef>
+where
+    S: StepPulses,
+    D: OutputPin,
+    E: OutputPin,
+    Ee: InputPin,
+    Ef: InputPin,
+{
+    fn sync(&mut self) -> u32 {
+        SyringePump::sync(self)
+    }
+    fn running(&self) -> bool {
+        SyringePump::running(self)
+    }
+    fn check_ahead(&mut self, direction: Direction) -> Result<(), PumpError> {
+        SyringePump::check_ahead(self, direction)
+    }
+    fn start(
+        &mut self,
+        direction: Direction,
+        first_us: u32,
+        second_us: u32,
+    ) -> Result<(), PumpError> {
+        SyringePump::start(self, direction, first_us, second_us)
+    }
+    fn queue_period(&mut self, period_us: u32) {
+        SyringePump::queue_period(self, period_us);
+    }
+    fn finish(&mut self) {
+        SyringePump::finish(self);
+    }
+    fn stop(&mut self) {
+        SyringePump::stop(self);
+    }
+}
+
 /// The pump's step plan, fed to its timer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StepSequencer {
@@ -74,17 +137,7 @@ impl StepSequencer {
     /// after the one in progress, and ends the run with its last pulse.
     /// Stopped: starts the next run if the plan has one (refusals as
     /// [`SyringePump::start`]; the plan then restarts from standstill).
-    pub fn service<S, D, E, Ee, Ef>(
-        &mut self,
-        pump: &mut SyringePump<S, D, E, Ee, Ef>,
-    ) -> Result<(), PumpError>
-    where
-        S: StepPulses,
-        D: OutputPin,
-        E: OutputPin,
-        Ee: InputPin,
-        Ef: InputPin,
-    {
+    pub fn service<P: StepDrive>(&mut self, pump: &mut P) -> Result<(), PumpError> {
         let done = pump.sync();
         if pump.running() {
             if let Err(e) = pump.check_ahead(self.direction) {
@@ -137,14 +190,7 @@ impl StepSequencer {
 
     /// Plans pulse `planned + 1`; queues its period when `queue`. A rest
     /// or a turn makes pulse `planned` the run's last.
-    fn plan_one<S, D, E, Ee, Ef>(&mut self, pump: &mut SyringePump<S, D, E, Ee, Ef>, queue: bool)
-    where
-        S: StepPulses,
-        D: OutputPin,
-        E: OutputPin,
-        Ee: InputPin,
-        Ef: InputPin,
-    {
+    fn plan_one<P: StepDrive>(&mut self, pump: &mut P, queue: bool) {
         match self.plan() {
             Some((direction, wait_us)) if direction == self.direction => {
                 if queue {
