@@ -492,10 +492,12 @@ fn accepted_cycle_rates_fit_the_pump() {
     // the pump clamps it and the cycle (and its stall bound) runs slower
     // than its parameters say: one constant bounds both.
     use urechis::controller::ParamField;
-    use urechis::drivers::pump::MAX_RATE_ML_PER_S;
+    use urechis::drivers::pump::{MAX_RATE_ML_PER_S, MIN_RATE_ML_PER_S};
     assert_eq!(MAX_RATE_ML_PER_S, 4.0);
+    assert_eq!(MIN_RATE_ML_PER_S, 0.05);
     for field in [ParamField::ExpandRateMlPerS, ParamField::ShrinkRateMlPerS] {
         assert_eq!(field.range().max, MAX_RATE_ML_PER_S);
+        assert_eq!(field.range().min, MIN_RATE_ML_PER_S);
     }
     let pump = urechis::drivers::pump::PumpConfig::default();
     // The clamp: 10 mL/s steps at the 4 mL/s interval.

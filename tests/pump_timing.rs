@@ -307,3 +307,32 @@ fn an_end_stop_refuses_further_pulses() {
     assert!(w.edges[500..].iter().all(|e| !e.1));
     assert_eq!(w.edges[500..].len() as i64, 500 - w.motor_steps);
 }
+
+#[test]
+fn hold_ramps_down_and_the_timer_stops_after_the_last_pulse() {
+    let (w, mut pump, mut seq) = rig();
+    pump.enable().unwrap();
+    seq.set_target(4.0);
+    let polls = Polls::AfterPulse { late_us: 30 };
+    run(&w, &mut pump, &mut seq, 0, 40_000, polls);
+    let at_hold = w.borrow().edges.len();
+    seq.set_target(0.0);
+    run(&w, &mut pump, &mut seq, 40_000, 200_000, polls);
+    let w = w.borrow();
+    assert!(!w.timer.running());
+    // 4 mL/s to rest at 200 mL/s²: v²/2a = 0.04 mL = 95.5 steps further,
+    // give or take the two pulses already planned at the command.
+    let further = (w.edges.len() - at_hold) as f64;
+    let s = f64::from(PumpConfig::default().ml_per_step());
+    assert!((further * s - 0.04).abs() <= 3.0 * s, "{further} steps");
+    // The intervals grow to the last, which ends at rest (≥ √(2s/a)).
+    let gaps: Vec<u64> = w.edges.windows(2).map(|p| p[1].0 - p[0].0).collect();
+    let tail = &gaps[gaps.len() - 20..];
+    assert!(tail.windows(2).all(|g| g[1] > g[0]), "{tail:?}");
+    assert!(*tail.last().unwrap() >= 2_047);
+    // The count is every edge, and nothing comes after the stop.
+    let n = w.edges.len();
+    drop(w);
+    pump.sync();
+    assert_eq!(pump.position_steps() as usize, n);
+}

@@ -210,6 +210,10 @@ mod tests {
         assert_eq!(*rates.last().unwrap(), 0.0);
         assert_eq!(p.next(0.0), Plan::Idle);
         assert_eq!(p.next(f32::NAN), Plan::Idle);
+        // Slower than the pump's slowest rate: no motion (a step would
+        // outlast the step timer).
+        assert_eq!(p.next(0.049), Plan::Idle);
+        assert_eq!(p.next(-0.049), Plan::Idle);
         // From standstill the first step takes √(2s/a) = 2.047 ms.
         assert_eq!(
             p.next(-1.0),
