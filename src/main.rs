@@ -27,7 +27,8 @@ mod firmware {
     use urechis::board::safe::{drive_outputs_safe, take_reset_record};
     use urechis::board::{
         control_task, pump_task, rx_task, sensor_task, tx_task, BoardFlash, BoardStore,
-        ControlOutputs, Pump, Sensor, SensorBus, RX_RING_BYTES, SHARED, WATCHDOG_TIMEOUT_US,
+        ControlOutputs, Pump, Sensor, SensorBus, StepTimer, RX_RING_BYTES, SHARED,
+        WATCHDOG_TIMEOUT_US,
     };
     use urechis::controller::{Controller, Fault};
     use urechis::drivers::pump::{PumpConfig, PumpPins};
@@ -44,6 +45,7 @@ mod firmware {
     // (DMA1, channel chosen by the HAL); the sensor bus binds its own
     // (`urechis::board::I2cIrqs`).
     bind_interrupts!(struct Irqs {
+        TIM1_UP_TIM10 => urechis::board::step_timer::UpdateInterrupt;
         USART2 => usart::InterruptHandler<peripherals::USART2>;
         DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
         DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
@@ -126,11 +128,12 @@ mod firmware {
         let store: &'static BoardStore = STORE.init(Mutex::new(store));
 
         // Safe levels first: valve de-energised (open, vented), advance off,
-        // stepper driver disabled (ENABLE is active low), STEP low.
+        // stepper driver disabled (ENABLE is active low), STEP low with its
+        // timer stopped.
         let relief_valve = Output::new(p.PA8, Level::Low, Speed::Low);
         let advance_drive = Output::new(p.PA9, Level::Low, Speed::Low);
         let enable = Output::new(p.PB5, Level::High, Speed::Low);
-        let step = Output::new(p.PA10, Level::Low, Speed::VeryHigh);
+        let step = StepTimer::new(p.TIM1, p.PA10, Irqs);
         let dir = Output::new(p.PB3, Level::Low, Speed::Low);
         let end_empty = Input::new(p.PB4, Pull::Up);
         let end_full = Input::new(p.PB10, Pull::Up);

@@ -3,17 +3,44 @@
 
 use std::f64::consts::PI;
 
-use embassy_futures::block_on;
-use embedded_hal_mock::eh1::delay::{CheckedDelay, Transaction as Delay};
+use std::cell::RefCell;
+use std::rc::Rc;
+
 use embedded_hal_mock::eh1::digital::{Mock as PinMock, State, Transaction as Pin};
 use embedded_hal_mock::eh1::MockError;
 use urechis::controller::EndStops;
 use urechis::drivers::pump::{
-    Direction, PinRole, PumpConfig, PumpConfigField, PumpError, PumpPins, SwitchPolarity,
-    SyringePump,
+    Direction, PinRole, PumpConfig, PumpConfigField, PumpError, PumpPins, SimStepTimer, StepPulses,
+    SwitchPolarity, SyringePump,
 };
 
-type Pump = SyringePump<PinMock, PinMock, PinMock, PinMock, PinMock>;
+/// The step timer: the host model, its clock advanced by the test.
+#[derive(Clone, Default)]
+struct TestStep(Rc<RefCell<SimStepTimer>>);
+
+impl StepPulses for TestStep {
+    fn start(&mut self, first_us: u32, second_us: u32) {
+        self.0.borrow_mut().start(first_us, second_us);
+    }
+    fn queue_period(&mut self, period_us: u32) {
+        self.0.borrow_mut().queue_period(period_us);
+    }
+    fn finish(&mut self) {
+        self.0.borrow_mut().finish();
+    }
+    fn stop(&mut self) {
+        self.0.borrow_mut().stop();
+    }
+    fn pulses(&self) -> u32 {
+        self.0.borrow().pulses()
+    }
+    fn running(&self) -> bool {
+        self.0.borrow().running()
+    }
+    async fn wait_pulse(&mut self, _seen: u32) {}
+}
+
+type Pump = SyringePump<TestStep, PinMock, PinMock, PinMock, PinMock>;
 
 /// Volume per microstep with the defaults (mL), closed form in f64:
 /// π/4 · 29.21² mm² · 2 mm / (200 · 16) / 1000.
@@ -28,7 +55,6 @@ fn rel_err(a: f64, b: f64) -> f64 {
 /// Expected transactions per pin.
 #[derive(Default)]
 struct Expect {
-    step: Vec<Pin>,
     dir: Vec<Pin>,
     enable: Vec<Pin>,
     empty: Vec<Pin>,
@@ -36,19 +62,27 @@ struct Expect {
 }
 
 fn pump(e: &Expect, config: PumpConfig) -> Pump {
+    pump_and_timer(e, config).0
+}
+
+/// A pump and its timer, whose clock the test advances.
+fn pump_and_timer(e: &Expect, config: PumpConfig) -> (Pump, Rc<RefCell<SimStepTimer>>) {
+    let step = TestStep::default();
+    let timer = Rc::clone(&step.0);
     let pins = PumpPins {
-        step: PinMock::new(&e.step),
+        step,
         dir: PinMock::new(&e.dir),
         enable: PinMock::new(&e.enable),
         end_empty: PinMock::new(&e.empty),
         end_full: PinMock::new(&e.full),
     };
-    SyringePump::new(pins, config).unwrap_or_else(|r| panic!("config rejected: {:?}", r.error))
+    let pump =
+        SyringePump::new(pins, config).unwrap_or_else(|r| panic!("config rejected: {:?}", r.error));
+    (pump, timer)
 }
 
 fn done(p: Pump) {
     let mut pins = p.destroy();
-    pins.step.done();
     pins.dir.done();
     pins.enable.done();
     pins.end_empty.done();
@@ -63,11 +97,6 @@ fn low_active() -> PumpConfig {
         end_stop_polarity: SwitchPolarity::ActiveLow,
         ..PumpConfig::default()
     }
-}
-
-/// One complete STEP pulse on the STEP pin.
-fn pulse() -> [Pin; 2] {
-    [Pin::set(State::High), Pin::set(State::Low)]
 }
 
 // --- Conversions -----------------------------------------------------------
@@ -156,8 +185,8 @@ fn validate_names_the_first_bad_field() {
         Err(SyringeBoreMm)
     );
     // 4 mL/s at 256 microsteps: one every 6.55 µs with a 2 mm lead, legal;
-    // with a 1 mm lead every 3.27 µs, under the 5 µs the pulse sequence
-    // takes.
+    // with a 1 mm lead every 3.27 µs, under the 5 µs a pulse takes (3 µs
+    // high, 2 µs low).
     assert_eq!(bad(|c| c.microsteps = 256), Ok(()));
     assert_eq!(
         bad(|c| {
@@ -166,6 +195,10 @@ fn validate_names_the_first_bad_field() {
         }),
         Err(Microsteps)
     );
+    // The slowest step, 2 × 1.676e-3 mL / 0.05 mL/s = 67 ms at 4
+    // microsteps, is longer than the timer's 65 ms; 33.5 ms at 8 fits.
+    assert_eq!(bad(|c| c.microsteps = 4), Err(Microsteps));
+    assert_eq!(bad(|c| c.microsteps = 8), Ok(()));
     assert_eq!(bad(|c| c.stroke_ml = f32::NAN), Err(StrokeMl));
     // 1e6 mL = 2.39e9 microsteps, beyond i32::MAX / 2.
     assert_eq!(bad(|c| c.stroke_ml = 1.0e6), Err(StrokeMl));
@@ -188,7 +221,7 @@ fn new_rejects_a_bad_config_and_returns_the_pins() {
         ..PumpConfig::default()
     };
     let pins = PumpPins {
-        step: PinMock::new(&[]),
+        step: TestStep::default(),
         dir: PinMock::new(&[]),
         enable: PinMock::new(&[]),
         end_empty: PinMock::new(&[]),
@@ -197,7 +230,7 @@ fn new_rejects_a_bad_config_and_returns_the_pins() {
     let rejected = SyringePump::new(pins, config).err().expect("must reject");
     assert_eq!(rejected.error.field, PumpConfigField::Microsteps);
     let mut pins = rejected.pins;
-    pins.step.done();
+    assert!(!pins.step.running());
     pins.dir.done();
     pins.enable.done();
     pins.end_empty.done();
@@ -220,17 +253,16 @@ fn enable_is_active_low() {
 }
 
 #[test]
-fn disabled_pump_refuses_to_step_without_touching_pins() {
+fn disabled_pump_refuses_to_start_without_touching_pins() {
     let e = Expect::default();
     let mut p = pump(&e, low_active());
-    let mut delay = CheckedDelay::new(&[]);
     assert_eq!(
-        block_on(p.step(Direction::Inject, &mut delay)),
+        p.start(Direction::Inject, 1_000, 1_000),
         Err(PumpError::Disabled)
     );
+    assert!(!p.running());
     assert_eq!(p.position_steps(), 0);
     done(p);
-    delay.done();
 }
 
 #[test]
@@ -246,46 +278,44 @@ fn failed_enable_leaves_the_pump_disabled() {
 }
 
 #[test]
-fn step_sequence_dir_then_pulse_and_position() {
-    // Inject, inject, withdraw. Switches open (active-low: read high).
+fn start_writes_dir_then_counts_the_timer_pulses() {
+    // Inject three pulses, withdraw one. Switches open (active-low: read
+    // high).
     let e = Expect {
         enable: vec![Pin::set(State::Low)],
-        empty: vec![Pin::get(State::High), Pin::get(State::High)],
+        empty: vec![Pin::get(State::High)],
         full: vec![Pin::get(State::High)],
         dir: vec![
             Pin::set(State::High), // inject = DIR high (default)
-            Pin::set(State::High),
-            Pin::set(State::Low), // withdraw
+            Pin::set(State::Low),  // withdraw
         ],
-        step: [pulse(), pulse(), pulse()].concat(),
     };
-    let mut delay = CheckedDelay::new(&[
-        // 1st step: DIR level new → 1 µs setup, 2 µs high, 2 µs low.
-        Delay::delay_us(1),
-        Delay::delay_us(2),
-        Delay::delay_us(2),
-        // 2nd step: same DIR level, no setup wait.
-        Delay::delay_us(2),
-        Delay::delay_us(2),
-        // 3rd step: DIR changed → setup again.
-        Delay::delay_us(1),
-        Delay::delay_us(2),
-        Delay::delay_us(2),
-    ]);
-    let mut p = pump(&e, low_active());
+    let (mut p, timer) = pump_and_timer(&e, low_active());
     p.enable().unwrap();
-    block_on(p.step(Direction::Inject, &mut delay)).unwrap();
-    assert_eq!(p.position_steps(), 1);
-    block_on(p.step(Direction::Inject, &mut delay)).unwrap();
-    assert_eq!(p.position_steps(), 2);
-    block_on(p.step(Direction::Withdraw, &mut delay)).unwrap();
-    assert_eq!(p.position_steps(), 1);
-    assert!(rel_err(f64::from(p.volume_ml()), default_ml_per_step()) < 1e-6);
-    p.zero_position();
+    p.start(Direction::Inject, 1_000, 500).unwrap();
+    // DIR changes only while stopped.
+    assert_eq!(
+        p.start(Direction::Withdraw, 1_000, 500),
+        Err(PumpError::Running)
+    );
+    timer.borrow_mut().advance(1_000 + 500 + 500 + 3, |_| {});
+    assert_eq!(p.sync(), 3);
+    assert_eq!(p.position_steps(), 3);
+    p.finish();
+    timer.borrow_mut().advance(10_000, |_| {});
+    assert_eq!(p.sync(), 4);
+    assert!(!p.running());
+    p.start(Direction::Withdraw, 1_000, 500).unwrap();
+    timer.borrow_mut().advance(11_100, |_| {});
+    p.stop();
+    assert_eq!(p.position_steps(), 3);
+    assert!(rel_err(f64::from(p.volume_ml()), 3.0 * default_ml_per_step()) < 1e-6);
+    p.zero_position().unwrap();
+    assert_eq!(p.position_steps(), 0);
+    assert_eq!(p.sync(), 1);
     assert_eq!(p.position_steps(), 0);
     assert_eq!(p.volume_ml(), 0.0);
     done(p);
-    delay.done();
 }
 
 #[test]
@@ -298,21 +328,17 @@ fn inverted_dir_config_flips_the_level() {
         enable: vec![Pin::set(State::Low)],
         empty: vec![Pin::get(State::High)],
         dir: vec![Pin::set(State::Low)],
-        step: pulse().to_vec(),
         ..Expect::default()
     };
-    let mut delay =
-        CheckedDelay::new(&[Delay::delay_us(1), Delay::delay_us(2), Delay::delay_us(2)]);
     let mut p = pump(&e, config);
     p.enable().unwrap();
-    block_on(p.step(Direction::Inject, &mut delay)).unwrap();
-    assert_eq!(p.position_steps(), 1);
+    p.start(Direction::Inject, 1_000, 1_000).unwrap();
+    assert!(p.running());
     done(p);
-    delay.done();
 }
 
 #[test]
-fn a_broken_end_stop_wire_reads_triggered_and_refuses_the_step() {
+fn a_broken_end_stop_wire_reads_triggered_and_refuses_the_start() {
     // The default wiring, normally-closed switches to GND with pull-ups:
     // an open circuit (a broken wire, a loose connector) reads high, as a
     // switch at the end does.
@@ -322,13 +348,13 @@ fn a_broken_end_stop_wire_reads_triggered_and_refuses_the_step() {
         full: vec![Pin::get(State::Low)],
         ..Expect::default()
     };
-    let mut delay = CheckedDelay::new(&[]);
     let mut p = pump(&e, PumpConfig::default());
     p.enable().unwrap();
     assert_eq!(
-        block_on(p.step(Direction::Inject, &mut delay)),
+        p.start(Direction::Inject, 1_000, 1_000),
         Err(PumpError::EndStop)
     );
+    assert!(!p.running());
     assert_eq!(
         p.end_stops(),
         Ok(EndStops {
@@ -338,54 +364,28 @@ fn a_broken_end_stop_wire_reads_triggered_and_refuses_the_step() {
     );
     assert_eq!(p.position_steps(), 0);
     done(p);
-    delay.done();
-}
-
-#[test]
-fn closed_end_stop_refuses_with_no_pin_motion() {
-    // Active-low: a closed switch reads low.
-    let e = Expect {
-        enable: vec![Pin::set(State::Low)],
-        empty: vec![Pin::get(State::Low)],
-        full: vec![Pin::get(State::Low)],
-        ..Expect::default()
-    };
-    let mut delay = CheckedDelay::new(&[]);
-    let mut p = pump(&e, low_active());
-    p.enable().unwrap();
-    assert_eq!(
-        block_on(p.step(Direction::Inject, &mut delay)),
-        Err(PumpError::EndStop)
-    );
-    assert_eq!(
-        block_on(p.step(Direction::Withdraw, &mut delay)),
-        Err(PumpError::EndStop)
-    );
-    assert_eq!(p.position_steps(), 0);
-    done(p);
-    delay.done();
 }
 
 #[test]
 fn only_the_end_stop_ahead_blocks() {
-    // Plunger fully in (`empty` closed): withdrawing is still allowed, and
-    // only the `full` switch is read for it.
+    // Active-low: a closed switch reads low. Plunger fully in (`empty`
+    // closed): injecting is refused, withdrawing allowed, and only the
+    // switch ahead is read.
     let e = Expect {
         enable: vec![Pin::set(State::Low)],
+        empty: vec![Pin::get(State::Low)],
         full: vec![Pin::get(State::High)],
         dir: vec![Pin::set(State::Low)],
-        step: pulse().to_vec(),
-        ..Expect::default()
     };
-    let mut delay =
-        CheckedDelay::new(&[Delay::delay_us(1), Delay::delay_us(2), Delay::delay_us(2)]);
     let mut p = pump(&e, low_active());
     p.enable().unwrap();
-    block_on(p.step(Direction::Withdraw, &mut delay)).unwrap();
-    assert_eq!(p.position_steps(), -1);
-    assert!(rel_err(f64::from(p.volume_ml()), -default_ml_per_step()) < 1e-6);
+    assert_eq!(
+        p.start(Direction::Inject, 1_000, 1_000),
+        Err(PumpError::EndStop)
+    );
+    p.start(Direction::Withdraw, 1_000, 1_000).unwrap();
+    assert!(p.running());
     done(p);
-    delay.done();
 }
 
 #[test]
@@ -432,85 +432,58 @@ fn end_stops_follow_polarity() {
 }
 
 #[test]
-fn unreadable_end_stop_refuses_the_step() {
+fn unreadable_end_stop_or_dir_refuses_the_start() {
     let io = MockError::Io(std::io::ErrorKind::Other);
     let e = Expect {
         enable: vec![Pin::set(State::Low)],
         empty: vec![
             Pin::get(State::High).with_error(io.clone()),
             Pin::get(State::High),
+            Pin::get(State::High),
         ],
-        full: vec![Pin::get(State::High).with_error(io)],
-        ..Expect::default()
+        full: vec![Pin::get(State::High).with_error(io.clone())],
+        dir: vec![Pin::set(State::High).with_error(io)],
     };
-    let mut delay = CheckedDelay::new(&[]);
     let mut p = pump(&e, low_active());
     p.enable().unwrap();
     assert_eq!(
-        block_on(p.step(Direction::Inject, &mut delay)),
+        p.start(Direction::Inject, 1_000, 1_000),
         Err(PumpError::Pin(PinRole::EndEmpty))
     );
-    assert_eq!(p.position_steps(), 0);
+    assert_eq!(
+        p.start(Direction::Inject, 1_000, 1_000),
+        Err(PumpError::Pin(PinRole::Dir))
+    );
+    assert!(!p.running());
     assert_eq!(p.end_stops(), Err(PumpError::Pin(PinRole::EndFull)));
     done(p);
-    delay.done();
 }
 
 #[test]
-fn a_step_counts_once_step_went_high() {
-    let io = MockError::Io(std::io::ErrorKind::Other);
-    let e = Expect {
-        enable: vec![Pin::set(State::Low)],
-        empty: vec![Pin::get(State::High), Pin::get(State::High)],
-        dir: vec![Pin::set(State::High), Pin::set(State::High)],
-        step: vec![
-            // Rising edge refused: no step.
-            Pin::set(State::High).with_error(io.clone()),
-            // Rising edge made, falling edge failed: the motor moved.
-            Pin::set(State::High),
-            Pin::set(State::Low).with_error(io),
-        ],
-        ..Expect::default()
-    };
-    let mut delay = CheckedDelay::new(&[Delay::delay_us(1), Delay::delay_us(2)]);
-    let mut p = pump(&e, low_active());
-    p.enable().unwrap();
-    assert_eq!(
-        block_on(p.step(Direction::Inject, &mut delay)),
-        Err(PumpError::Pin(PinRole::Step))
-    );
-    assert_eq!(p.position_steps(), 0);
-    assert_eq!(
-        block_on(p.step(Direction::Inject, &mut delay)),
-        Err(PumpError::Pin(PinRole::Step))
-    );
-    assert_eq!(p.position_steps(), 1);
-    done(p);
-    delay.done();
-}
-
-#[test]
-fn disable_blocks_further_steps() {
+fn disable_stops_the_timer_and_blocks_further_starts() {
     let e = Expect {
         enable: vec![Pin::set(State::Low), Pin::set(State::High)],
         empty: vec![Pin::get(State::High)],
         dir: vec![Pin::set(State::High)],
-        step: pulse().to_vec(),
         ..Expect::default()
     };
-    let mut delay =
-        CheckedDelay::new(&[Delay::delay_us(1), Delay::delay_us(2), Delay::delay_us(2)]);
-    let mut p = pump(&e, low_active());
+    let (mut p, timer) = pump_and_timer(&e, low_active());
     p.enable().unwrap();
-    block_on(p.step(Direction::Inject, &mut delay)).unwrap();
+    p.start(Direction::Inject, 100, 100).unwrap();
+    // Stopped inside the first pulse: its edge came, it counts.
+    timer.borrow_mut().advance(101, |_| {});
     p.disable().unwrap();
+    assert!(!p.running());
+    assert!(!timer.borrow().step_high());
+    assert_eq!(p.position_steps(), 1);
+    timer
+        .borrow_mut()
+        .advance(10_000, |_| panic!("an edge after disable"));
     assert_eq!(
-        block_on(p.step(Direction::Inject, &mut delay)),
+        p.start(Direction::Inject, 100, 100),
         Err(PumpError::Disabled)
     );
-    assert_eq!(p.position_steps(), 1);
     done(p);
-    delay.done();
 }
 
 #[test]
@@ -519,10 +492,12 @@ fn accepted_cycle_rates_fit_the_pump() {
     // the pump clamps it and the cycle (and its stall bound) runs slower
     // than its parameters say: one constant bounds both.
     use urechis::controller::ParamField;
-    use urechis::drivers::pump::MAX_RATE_ML_PER_S;
+    use urechis::drivers::pump::{MAX_RATE_ML_PER_S, MIN_RATE_ML_PER_S};
     assert_eq!(MAX_RATE_ML_PER_S, 4.0);
+    assert_eq!(MIN_RATE_ML_PER_S, 0.05);
     for field in [ParamField::ExpandRateMlPerS, ParamField::ShrinkRateMlPerS] {
         assert_eq!(field.range().max, MAX_RATE_ML_PER_S);
+        assert_eq!(field.range().min, MIN_RATE_ML_PER_S);
     }
     let pump = urechis::drivers::pump::PumpConfig::default();
     // The clamp: 10 mL/s steps at the 4 mL/s interval.

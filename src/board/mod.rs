@@ -10,7 +10,7 @@
 //! |---|---|---|
 //! | I²C1 SCL | PB8 (D15) | MS5837 SCL; 100 kHz, external 4.7 kΩ pull-ups to 3.3 V |
 //! | I²C1 SDA | PB9 (D14) | MS5837 SDA |
-//! | STEP | PA10 (D2) | stepper driver STEP (A4988/DRV8825), idles low; fit a 10 kΩ pull-down so no edge steps the motor while the MCU is in reset |
+//! | STEP | PA10 (D2) | stepper driver STEP (A4988/DRV8825) from TIM1_CH3 (AF1), idles low; fit a 10 kΩ pull-down so no edge steps the motor while the MCU is in reset |
 //! | DIR | PB3 (D3) | stepper driver DIR (PB3 is SWO: leave SWO trace off) |
 //! | ENABLE | PB5 (D4) | stepper driver EN, active low; boots high (off). Fit a 10 kΩ pull-up to 3.3 V so the driver also stays off while the MCU is in reset |
 //! | end-stop EMPTY | PB4 (D5) | normally-closed microswitch to GND, internal pull-up: low in travel, high when the plunger is fully in (the switch opens) or the wire is broken; debounced 2 ms |
@@ -40,6 +40,7 @@
 //! happen only in Idle (a table upload, every 8,192nd tare).
 
 pub mod safe;
+pub mod step_timer;
 
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::{Input, Level, Output, OutputOpenDrain, Speed};
@@ -62,6 +63,7 @@ use crate::safety::{advance_level, valve_level};
 use crate::tasks::control::BootInfo;
 use crate::tasks::sensor::BusRecovery;
 use crate::tasks::{self, ControlIo, Shared, StoreMutex};
+pub use step_timer::StepTimer;
 
 /// Independent-watchdog timeout (µs): ten control periods. The LSI clock
 /// behind it may run up to 47 kHz instead of 32 kHz, which shortens this to
@@ -75,10 +77,10 @@ pub const RX_RING_BYTES: usize = 256;
 /// The tasks' channels and signals.
 pub static SHARED: Shared = Shared::new();
 
-/// The pump as the board builds it: STEP, DIR, ENABLE outputs and the
-/// EMPTY, FULL end-stop inputs.
+/// The pump as the board builds it: STEP from TIM1 CH3 ([`StepTimer`]),
+/// DIR and ENABLE outputs and the EMPTY, FULL end-stop inputs.
 pub type Pump =
-    SyringePump<Output<'static>, Output<'static>, Output<'static>, Input<'static>, Input<'static>>;
+    SyringePump<StepTimer, Output<'static>, Output<'static>, Input<'static>, Input<'static>>;
 
 /// I²C bus speed: 100 kHz tolerates the capacitance of a cable to a
 /// buried sensor.

@@ -60,9 +60,31 @@ impl OutputPin for RawPin {
     }
 }
 
-/// Drives ENABLE (PB5), STEP (PA10), the relief valve (PA8) and the advance
-/// drive (PA9) to their safe levels with [`safe_outputs`], turning the
-/// GPIO ports' clocks on first (boot may call it before the HAL has).
+/// STEP: TIM1 stopped with CH3 forced low, then PA10 a plain output,
+/// low, so no edge can follow whatever the timer was doing.
+struct StepPin(RawPin);
+
+impl ErrorType for StepPin {
+    type Error = Infallible;
+}
+
+impl OutputPin for StepPin {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        super::step_timer::stop_by_register();
+        self.0.set(false);
+        Ok(())
+    }
+
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        self.0.set(true);
+        Ok(())
+    }
+}
+
+/// Drives ENABLE (PB5), STEP (PA10, its timer stopped), the relief valve
+/// (PA8) and the advance drive (PA9) to their safe levels with
+/// [`safe_outputs`], turning the GPIO ports' clocks on first (boot may
+/// call it before the HAL has).
 pub fn drive_outputs_safe() -> Result<(), SafeOutputsFailed> {
     pac::RCC.ahb1enr().modify(|w| {
         w.set_gpioaen(true);
@@ -73,10 +95,10 @@ pub fn drive_outputs_safe() -> Result<(), SafeOutputsFailed> {
             port: pac::GPIOB,
             pin: 5,
         },
-        step: &mut RawPin {
+        step: &mut StepPin(RawPin {
             port: pac::GPIOA,
             pin: 10,
-        },
+        }),
         relief_valve: &mut RawPin {
             port: pac::GPIOA,
             pin: 8,

@@ -162,7 +162,10 @@ pub struct BoardTiming {
     pub end_stop_delay_ms: u32,
     /// The relief valve's response (ms): from its gate going low to the
     /// line vented. A property of the fitted valve (small solenoid valves:
-    /// 10–50 ms); not modelled by the emulator's plant.
+    /// 10–50 ms). The emulator's plant delays its valve by this figure
+    /// (host-sim's `PlantConfig::valve_response_ms`, 50 ms by default)
+    /// and checks every fault scenario's venting against
+    /// [`end_to_end_bound_ms`]; a slower valve fails those checks.
     pub valve_response_ms: u32,
 }
 

@@ -15,7 +15,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::bounds::{SENSOR_MAX_GAUGE_KPA, SENSOR_MIN_GAUGE_KPA};
-use crate::drivers::pump::MAX_RATE_ML_PER_S;
+use crate::drivers::pump::{MAX_RATE_ML_PER_S, MIN_RATE_ML_PER_S};
 
 /// Tunable parameters of the burrowing cycle and its safety limits.
 ///
@@ -32,10 +32,12 @@ pub struct Params {
     /// Expansion stops when the estimated outer diameter reaches this (mm).
     /// Range 10–50.
     pub target_diameter_mm: f32,
-    /// Injection rate while expanding (mL/s). Range 0.05 to the pump's
+    /// Injection rate while expanding (mL/s). Range the pump's
+    /// [`MIN_RATE_ML_PER_S`] (0.05) to its
     /// [`MAX_RATE_ML_PER_S`] (4).
     pub expand_rate_ml_per_s: f32,
-    /// Withdrawal rate while shrinking (mL/s, positive number). Range 0.05
+    /// Withdrawal rate while shrinking (mL/s, positive number). Range
+    /// [`MIN_RATE_ML_PER_S`] (0.05)
     /// to the pump's [`MAX_RATE_ML_PER_S`] (4).
     pub shrink_rate_ml_per_s: f32,
     /// Time at constant volume after expanding (ms). Range 0–60 000.
@@ -198,8 +200,16 @@ const fn range(field: ParamField, min: f32, max: f32) -> FieldRange {
 pub const RANGES: [FieldRange; 26] = [
     range(ParamField::DepthMm, 0.0, 200.0),
     range(ParamField::TargetDiameterMm, 10.0, 50.0),
-    range(ParamField::ExpandRateMlPerS, 0.05, MAX_RATE_ML_PER_S),
-    range(ParamField::ShrinkRateMlPerS, 0.05, MAX_RATE_ML_PER_S),
+    range(
+        ParamField::ExpandRateMlPerS,
+        MIN_RATE_ML_PER_S,
+        MAX_RATE_ML_PER_S,
+    ),
+    range(
+        ParamField::ShrinkRateMlPerS,
+        MIN_RATE_ML_PER_S,
+        MAX_RATE_ML_PER_S,
+    ),
     range(ParamField::HoldMs, 0.0, 60_000.0),
     range(ParamField::AdvanceMs, 0.0, 60_000.0),
     range(ParamField::Cycles, 0.0, u16::MAX as f32),

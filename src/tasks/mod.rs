@@ -9,7 +9,7 @@
 //! |---|---|---|---|
 //! | [`sensor::run`] | the MS5837 on its I²C bus | [`Shared::sample`] (latest wins); tare replies | tare requests, the zero |
 //! | [`control::run`] | the controller, relief valve, advance drive, watchdog ([`ControlIo`]) | [`Shared::pump_command`], [`Shared::telemetry`], [`Shared::replies`] | sample, pump status, [`Shared::requests`] |
-//! | [`pump::run`] | STEP/DIR/ENABLE, end-stops | [`Shared::pump_status`] (latest wins) | pump command |
+//! | [`pump::run`] | the STEP timer ([`StepPulses`](crate::drivers::pump::StepPulses)), DIR/ENABLE, end-stops | [`Shared::pump_status`] (latest wins) | pump command, completed pulses |
 //! | [`link::rx`] | UART RX | [`Shared::requests`], `Pong`/`Nack` and table-upload replies | — |
 //! | [`link::tx`] | UART TX | frames on the wire | replies, telemetry |
 //!
@@ -17,7 +17,6 @@
 //! [`StoreMutex`]). Every decision is made by
 //! [`crate::controller::Controller::step`] in the control task.
 
-pub mod busy_wait;
 pub mod control;
 pub mod link;
 mod log;

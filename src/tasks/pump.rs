@@ -1,17 +1,17 @@
-//! The pump task: turns the latest [`PumpCommand`] into STEP pulses at the
-//! commanded rate, ramped, and reports the plunger's volume and end-stops.
-//! The pulses are timed by the executor (one wake-up per microstep, 2 µs
-//! busy-waited pulses), not by a hardware timer.
+//! The pump task: turns the latest [`PumpCommand`] into a step plan for
+//! the STEP timer, ramped, and reports the plunger's volume and end-stops.
+//! The edges are timed by the timer ([`StepPulses`]); the task only keeps
+//! the next period queued, once per completed pulse
+//! ([`StepSequencer`]).
 
-use embassy_futures::select::{select, Either};
+use embassy_futures::select::{select3, Either3};
 use embassy_time::{Duration, Instant, Timer};
 use embedded_hal::digital::{InputPin, OutputPin};
 
-use super::busy_wait::BusyWait;
 use super::log::{log_error, log_warn};
 use super::{PumpStatus, Shared};
 use crate::controller::{EndStops, PumpCommand};
-use crate::drivers::pump::{Direction, EndStopDebounce, Plan, PumpError, StepPlanner, SyringePump};
+use crate::drivers::pump::{EndStopDebounce, PumpError, StepPulses, StepSequencer, SyringePump};
 
 /// How often the end-stops are re-read while the motor is not stepping
 /// (ms), so the control loop sees a triggered switch within a step or two.
@@ -25,25 +25,28 @@ const _: () = assert!(
 );
 
 /// Applies [`Shared::pump_command`]s as they arrive, through a
-/// trapezoidal [`StepPlanner`] (rate changes at most
+/// trapezoidal [`StepSequencer`] (rate changes at most
 /// [`ACCEL_ML_PER_S2`](crate::drivers::pump::ACCEL_ML_PER_S2), every
-/// reversal through a stop).
+/// reversal through a stop, DIR written only with the timer stopped).
 ///
-/// - `Disable`: ENABLE off, no steps, the planner stopped at once (the
-///   boot state; the fault state).
+/// - `Disable`: the timer stopped at once (STEP low), ENABLE off, the plan
+///   forgotten (the boot state; the fault state).
 /// - `Hold`: ENABLE on, the rate ramps down to rest (at most 0.04 mL
-///   further, from 4 mL/s), then no steps.
+///   further, from 4 mL/s), then the timer stops after the last pulse.
 /// - `Run`: ENABLE on, the rate ramps to the command's (clamped to
-///   [`MAX_RATE_ML_PER_S`](crate::drivers::pump::MAX_RATE_ML_PER_S)); each
-///   microstep on its planned deadline after the previous one (no drift
-///   from the pulse's own length). A new command re-targets the planner
-///   from the next step on. The driver refuses a step into a triggered
-///   end-stop (raw reading), and the planner restarts from standstill.
+///   [`MAX_RATE_ML_PER_S`](crate::drivers::pump::MAX_RATE_ML_PER_S)). The
+///   timer times every edge; after each completed pulse the task queues
+///   the period of the pulse after the next, so a wake-up up to one
+///   period late moves no edge. A new command re-targets the plan from
+///   the next queued pulse on. A raw end-stop ahead stops the timer at
+///   once (at most the pulse in progress still comes), and the plan
+///   restarts from standstill.
 ///
-/// After every change and every step it publishes [`Shared::pump_status`].
+/// After every change and every pulse it publishes [`Shared::pump_status`]:
+/// the volume of the pulses the timer completed.
 pub async fn run<S, D, E, Ee, Ef>(mut pump: SyringePump<S, D, E, Ee, Ef>, shared: &Shared) -> !
 where
-    S: OutputPin,
+    S: StepPulses,
     D: OutputPin,
     E: OutputPin,
     Ee: InputPin,
@@ -51,75 +54,73 @@ where
 {
     let mut command = PumpCommand::Disable;
     let mut debounce = EndStopDebounce::new();
-    let mut planner = StepPlanner::new(pump.config().ml_per_step());
-    apply(&mut pump, command);
+    let mut sequencer = StepSequencer::new(pump.config().ml_per_step());
+    apply(&mut pump, &mut sequencer, command);
     publish(&mut pump, &mut debounce, shared);
-    let mut last_step = Instant::now();
-    let mut pending: Option<(Direction, Instant)> = None;
     // Logged once per change, not at the step rate.
     let mut last_refusal: Option<PumpError> = None;
     loop {
-        if pending.is_none() && command != PumpCommand::Disable {
-            let target = match command {
-                PumpCommand::Run { rate_ml_per_s } => rate_ml_per_s,
-                PumpCommand::Disable | PumpCommand::Hold => 0.0,
-            };
-            let from_rest = planner.rate_ml_per_s() == 0.0;
-            if let Plan::Step { direction, wait_us } = planner.next(target) {
-                let base = if from_rest { Instant::now() } else { last_step };
-                pending = Some((direction, base + Duration::from_micros(u64::from(wait_us))));
+        let seen = pump.sync();
+        let running = pump.running();
+        // At rest there is no pulse to wait for (`wait_pulse` would return
+        // at once): the command or the idle poll wakes the task.
+        let pulse = async {
+            if running {
+                pump.wait_pulse(seen).await;
+            } else {
+                core::future::pending::<()>().await;
             }
-        }
-        let wake_at = match pending {
-            Some((_, at)) => at,
-            None => Instant::now() + Duration::from_millis(IDLE_POLL_MS),
         };
-        match select(shared.pump_command.wait(), Timer::at(wake_at)).await {
-            Either::First(new) => {
+        let idle = Timer::after(Duration::from_millis(IDLE_POLL_MS));
+        match select3(shared.pump_command.wait(), pulse, idle).await {
+            Either3::First(new) => {
                 command = new;
-                if command == PumpCommand::Disable {
-                    planner.stop_now();
-                    pending = None;
-                }
-                apply(&mut pump, command);
+                apply(&mut pump, &mut sequencer, command);
             }
-            Either::Second(()) => {
-                if let Some((direction, at)) = pending.take() {
-                    // On a refusal (end-stop, disabled) no step was made;
-                    // the controller sees the end-stop and decides.
-                    let refusal = pump.step(direction, &mut BusyWait).await.err();
-                    if refusal.is_some() {
-                        planner.stop_now();
-                    }
-                    if refusal != last_refusal {
-                        if let Some(e) = refusal {
-                            log_warn!("pump: step refused: {}", e);
-                        }
-                        last_refusal = refusal;
-                    }
-                    // After a stall of the executor, do not burst to
-                    // catch up.
-                    let now = Instant::now();
-                    last_step = if at < now { now } else { at };
+            Either3::Second(()) | Either3::Third(()) => {}
+        }
+        if command != PumpCommand::Disable {
+            // On a refusal (end-stop, disabled) the timer is stopped; the
+            // controller sees the end-stop and decides.
+            let refusal = sequencer.service(&mut pump).err();
+            if refusal != last_refusal {
+                if let Some(e) = refusal {
+                    log_warn!("pump: step refused: {}", e);
                 }
+                last_refusal = refusal;
             }
         }
         publish(&mut pump, &mut debounce, shared);
     }
 }
 
-/// ENABLE per command. A failed pin write leaves the driver refusing steps.
-fn apply<S, D, E, Ee, Ef>(pump: &mut SyringePump<S, D, E, Ee, Ef>, command: PumpCommand)
-where
-    S: OutputPin,
+/// The target and ENABLE per command; `Disable` stops the timer first. A
+/// failed pin write leaves the driver refusing to start.
+fn apply<S, D, E, Ee, Ef>(
+    pump: &mut SyringePump<S, D, E, Ee, Ef>,
+    sequencer: &mut StepSequencer,
+    command: PumpCommand,
+) where
+    S: StepPulses,
     D: OutputPin,
     E: OutputPin,
     Ee: InputPin,
     Ef: InputPin,
 {
     let result = match command {
-        PumpCommand::Disable => pump.disable(),
-        PumpCommand::Hold | PumpCommand::Run { .. } => pump.enable(),
+        PumpCommand::Disable => {
+            sequencer.stop_now();
+            sequencer.set_target(0.0);
+            pump.disable()
+        }
+        PumpCommand::Hold => {
+            sequencer.set_target(0.0);
+            pump.enable()
+        }
+        PumpCommand::Run { rate_ml_per_s } => {
+            sequencer.set_target(rate_ml_per_s);
+            pump.enable()
+        }
     };
     if let Err(e) = result {
         log_error!("pump: {} failed: {}", command, e);
@@ -133,12 +134,13 @@ fn publish<S, D, E, Ee, Ef>(
     debounce: &mut EndStopDebounce,
     shared: &Shared,
 ) where
-    S: OutputPin,
+    S: StepPulses,
     D: OutputPin,
     E: OutputPin,
     Ee: InputPin,
     Ef: InputPin,
 {
+    pump.sync();
     let raw = pump.end_stops().unwrap_or(EndStops {
         empty: true,
         full: true,

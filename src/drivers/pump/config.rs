@@ -3,9 +3,7 @@
 
 use core::f32::consts::PI;
 
-/// Shortest STEP period the driver itself needs (µs): DIR setup 1 µs, STEP
-/// high 2 µs, STEP low 2 µs (see [`super::STEP_HIGH_US`]).
-pub const MIN_STEP_PERIOD_US: f32 = 5.0;
+use super::pulses::{MAX_STEP_PERIOD_US, MIN_STEP_PERIOD_US};
 
 /// Highest volume rate the pump steps at (mL/s), for every build: the
 /// controller's rate parameters are refused above it
@@ -14,6 +12,12 @@ pub const MIN_STEP_PERIOD_US: f32 = 5.0;
 /// the default mechanics, 3 rev/s = 180 rpm, well inside a NEMA 17's range
 /// on a 12–24 V driver.
 pub const MAX_RATE_ML_PER_S: f32 = 4.0;
+
+/// Lowest volume rate the pump steps at (mL/s), for every build: the
+/// controller's rate parameters are refused below it and the step planner
+/// takes a slower target as 0 (no motion), so the slowest step period
+/// stays within the step timer's ([`PumpConfig::validate`]).
+pub const MIN_RATE_ML_PER_S: f32 = 0.05;
 
 /// Microsteps per full step the A4988/DRV8825 family can select.
 const MAX_MICROSTEPS: u16 = 256;
@@ -102,7 +106,10 @@ impl PumpConfig {
     /// Ranges: lead, bore and stroke finite and > 0; full steps per
     /// revolution > 0; microsteps a power of two in 1..=256, and few enough
     /// that [`MAX_RATE_ML_PER_S`] needs no faster than one microstep per
-    /// [`MIN_STEP_PERIOD_US`] (reported as `Microsteps`); the stroke no
+    /// [`MIN_STEP_PERIOD_US`], and coarse enough that the slowest planned
+    /// step (ending or starting at [`MIN_RATE_ML_PER_S`]: twice the
+    /// volume of a step over that rate) fits the timer's
+    /// [`MAX_STEP_PERIOD_US`] (both reported as `Microsteps`); the stroke no
     /// more than `i32::MAX / 2` microsteps (the position can never overflow
     /// within travel).
     pub fn validate(&self) -> Result<(), PumpConfigError> {
@@ -121,9 +128,14 @@ impl PumpConfig {
         }
         // From here on ml_per_step is finite and > 0, so the quotients below
         // are > 0 (possibly +inf) and never NaN.
-        if 1.0e6 * self.ml_per_step() / MAX_RATE_ML_PER_S < MIN_STEP_PERIOD_US {
+        if 1.0e6 * self.ml_per_step() / MAX_RATE_ML_PER_S < MIN_STEP_PERIOD_US as f32 {
             // Too fine a step for MAX_RATE_ML_PER_S at the driver's
             // fastest STEP: fewer microsteps fix it.
+            return err(PumpConfigField::Microsteps);
+        }
+        if 2.0e6 * self.ml_per_step() / MIN_RATE_ML_PER_S > MAX_STEP_PERIOD_US as f32 {
+            // Too coarse a step for the timer at the slowest rate: more
+            // microsteps fix it.
             return err(PumpConfigField::Microsteps);
         }
         if !positive_finite(self.stroke_ml)

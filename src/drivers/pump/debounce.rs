@@ -3,9 +3,10 @@
 //! A microswitch's contacts bounce for up to a few milliseconds, and a long
 //! cable to a normally-closed switch picks up spikes that would otherwise
 //! stop a cycle for nothing. Both directions wait the same time; the
-//! driver itself still refuses a step into a switch the raw reading shows
-//! triggered ([`super::SyringePump::step`]), so the debounce never lets
-//! the plunger run on.
+//! driver itself still refuses to start into a switch the raw reading
+//! shows triggered, and the pump task stops the step timer when it does
+//! ([`super::StepSequencer::service`]), so the debounce never lets the
+//! plunger run on.
 
 use crate::controller::EndStops;
 

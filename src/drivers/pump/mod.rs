@@ -3,35 +3,40 @@
 //!
 //! Driver timing (datasheet minimums): STEP high ≥ 1 µs (A4988) / 1.9 µs
 //! (DRV8825), STEP low the same, DIR setup before the STEP rising edge
-//! ≥ 200 ns (A4988) / 650 ns (DRV8825) and held as long after it. This
-//! driver uses 2 µs high, 2 µs low and 1 µs DIR setup, so it meets both
-//! parts however fast [`SyringePump::step`] is called. The driver steps on
-//! STEP's rising edge. ENABLE is active-low on both parts: low = outputs on.
+//! ≥ 200 ns (A4988) / 650 ns (DRV8825) and held as long after it. STEP
+//! comes from a hardware timer ([`pulses`]): [`STEP_HIGH_US`] high (margin
+//! for the HSI clock's tolerance), at least [`STEP_LOW_US`] low, and DIR is
+//! written only while the timer is stopped, at least the first step's
+//! period (≥ [`pulses::MIN_STEP_PERIOD_US`]) before its edge. The driver
+//! steps on STEP's rising edge. ENABLE is active-low on both parts: low =
+//! outputs on.
 //!
 //! Sign convention: positive position and volume = injected. Injecting pushes
 //! the plunger towards the `empty` end-stop; withdrawing towards `full`.
 
 pub mod config;
 pub mod debounce;
+pub mod pulses;
 pub mod ramp;
+pub mod sequencer;
 
 use embedded_hal::digital::{InputPin, OutputPin};
-use embedded_hal_async::delay::DelayNs;
 
 use crate::controller::EndStops;
 pub use config::{
     PumpConfig, PumpConfigError, PumpConfigField, SwitchPolarity, MAX_RATE_ML_PER_S,
-    MIN_STEP_PERIOD_US,
+    MIN_RATE_ML_PER_S,
 };
 pub use debounce::{EndStopDebounce, END_STOP_DEBOUNCE_US};
+pub use pulses::{SimStepTimer, StepPulses, MAX_STEP_PERIOD_US, MIN_STEP_PERIOD_US};
 pub use ramp::{Plan, StepPlanner, ACCEL_ML_PER_S2};
+pub use sequencer::{StepDrive, StepSequencer};
 
-/// STEP high time (µs).
-pub const STEP_HIGH_US: u32 = 2;
-/// STEP low time after each pulse (µs), so back-to-back steps stay legal.
+/// STEP high time (µs): the timer's pulse width, 3 µs so that the
+/// DRV8825's 1.9 µs holds even with the HSI clock several per cent slow.
+pub const STEP_HIGH_US: u32 = 3;
+/// Shortest STEP low time between pulses (µs).
 pub const STEP_LOW_US: u32 = 2;
-/// Wait between a DIR change and the next STEP rising edge (µs).
-pub const DIR_SETUP_US: u32 = 1;
 
 /// Which way the plunger moves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,7 +65,8 @@ impl Direction {
 /// The pins, by role (named so STEP and DIR cannot be swapped silently).
 #[derive(Debug)]
 pub struct PumpPins<Step, Dir, Enable, EndEmpty, EndFull> {
-    /// STEP output: one microstep per rising edge.
+    /// STEP: the timer that pulses it ([`StepPulses`]), one microstep per
+    /// rising edge.
     pub step: Step,
     /// DIR output: level per [`PumpConfig::inject_dir_high`].
     pub dir: Dir,
@@ -99,8 +105,8 @@ pub enum PumpError {
     Disabled,
     /// A GPIO operation failed on this pin.
     Pin(PinRole),
-    /// The position counter would overflow `i32`: no step was made.
-    PositionOverflow,
+    /// The step timer is still running: DIR changes only while stopped.
+    Running,
 }
 
 /// [`SyringePump::new`] refused the configuration; the pins come back.
@@ -113,27 +119,30 @@ pub struct ConfigRejected<P> {
 }
 
 /// A syringe pump: a STEP/DIR stepper driver plus two end-stops, with the
-/// plunger position counted in signed microsteps.
+/// plunger position counted in signed microsteps: the pulses the step
+/// timer completed.
 pub struct SyringePump<Step, Dir, Enable, EndEmpty, EndFull> {
     pins: PumpPins<Step, Dir, Enable, EndEmpty, EndFull>,
     config: PumpConfig,
     enabled: bool,
-    /// Last DIR level written; `None` until the first step.
-    dir_high: Option<bool>,
+    /// Position when the timer was last started (microsteps).
+    run_base_steps: i32,
+    /// +1 injecting, −1 withdrawing, in the last run.
+    run_sign: i32,
     position_steps: i32,
 }
 
 impl<Step, Dir, Enable, EndEmpty, EndFull> SyringePump<Step, Dir, Enable, EndEmpty, EndFull>
 where
-    Step: OutputPin,
+    Step: StepPulses,
     Dir: OutputPin,
     Enable: OutputPin,
     EndEmpty: InputPin,
     EndFull: InputPin,
 {
     /// A pump over these pins, after [`PumpConfig::validate`]. Touches no pin:
-    /// the board must create ENABLE high (disabled) and STEP low. The pump
-    /// starts disabled at position 0.
+    /// the board must create ENABLE high (disabled) and the timer stopped
+    /// with STEP low. The pump starts disabled at position 0.
     #[allow(clippy::type_complexity)] // the error hands every pin back
     pub fn new(
         pins: PumpPins<Step, Dir, Enable, EndEmpty, EndFull>,
@@ -146,7 +155,8 @@ where
             pins,
             config,
             enabled: false,
-            dir_high: None,
+            run_base_steps: 0,
+            run_sign: 1,
             position_steps: 0,
         })
     }
@@ -172,9 +182,11 @@ where
         Ok(())
     }
 
-    /// Turns the motor outputs off (ENABLE high). The pump refuses to step
-    /// from now on even if the pin write fails.
+    /// Stops the step timer at once, then turns the motor outputs off
+    /// (ENABLE high). The pump refuses to start from now on even if the
+    /// pin write fails.
     pub fn disable(&mut self) -> Result<(), PumpError> {
+        self.stop();
         self.enabled = false;
         self.pins
             .enable
@@ -210,75 +222,106 @@ where
         Ok(EndStops { empty, full })
     }
 
-    /// One microstep in `direction`.
+    /// Checks the end-stop ahead of `direction` (`empty` for inject,
+    /// `full` for withdraw), raw: `Err(EndStop)` when triggered, the pin's
+    /// error when unreadable.
+    pub fn check_ahead(&mut self, direction: Direction) -> Result<(), PumpError> {
+        let polarity = self.config.end_stop_polarity;
+        let blocked = match direction {
+            Direction::Inject => {
+                Self::triggered(&mut self.pins.end_empty, polarity, PinRole::EndEmpty)?
+            }
+            Direction::Withdraw => {
+                Self::triggered(&mut self.pins.end_full, polarity, PinRole::EndFull)?
+            }
+        };
+        if blocked {
+            Err(PumpError::EndStop)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Starts the step timer in `direction`: the first step `first_us`
+    /// from now, the second `second_us` after it (µs; see
+    /// [`StepPulses::start`]).
     ///
-    /// Refuses, touching no output, when disabled ([`PumpError::Disabled`]),
-    /// when the end-stop ahead (`empty` for inject, `full` for withdraw) is
-    /// triggered or unreadable ([`PumpError::EndStop`] / [`PumpError::Pin`]),
-    /// or when the count would overflow. Otherwise writes DIR (waiting
-    /// [`DIR_SETUP_US`] if its level changed), raises STEP for
-    /// [`STEP_HIGH_US`], lowers it and waits [`STEP_LOW_US`]. The step counts
-    /// once STEP went high, even if lowering it then fails.
-    pub async fn step<D: DelayNs>(
+    /// Refuses, starting nothing, when disabled ([`PumpError::Disabled`]),
+    /// when the timer still runs ([`PumpError::Running`]: DIR changes only
+    /// while stopped), when the end-stop ahead is triggered or unreadable
+    /// ([`SyringePump::check_ahead`]), or when DIR cannot be written.
+    pub fn start(
         &mut self,
         direction: Direction,
-        delay: &mut D,
+        first_us: u32,
+        second_us: u32,
     ) -> Result<(), PumpError> {
         if !self.enabled {
             return Err(PumpError::Disabled);
         }
-        let polarity = self.config.end_stop_polarity;
-        let (blocked, delta) = match direction {
-            Direction::Inject => (
-                Self::triggered(&mut self.pins.end_empty, polarity, PinRole::EndEmpty)?,
-                1,
-            ),
-            Direction::Withdraw => (
-                Self::triggered(&mut self.pins.end_full, polarity, PinRole::EndFull)?,
-                -1,
-            ),
-        };
-        if blocked {
-            return Err(PumpError::EndStop);
+        self.sync();
+        if self.pins.step.running() {
+            return Err(PumpError::Running);
         }
-        let next = self
-            .position_steps
-            .checked_add(delta)
-            .ok_or(PumpError::PositionOverflow)?;
-
+        self.check_ahead(direction)?;
         let dir_high = (direction == Direction::Inject) == self.config.inject_dir_high;
-        let dir_write = if dir_high {
-            self.pins.dir.set_high()
-        } else {
-            self.pins.dir.set_low()
+        self.pins
+            .dir
+            .set_state(dir_high.into())
+            .map_err(|_| PumpError::Pin(PinRole::Dir))?;
+        self.run_base_steps = self.position_steps;
+        self.run_sign = match direction {
+            Direction::Inject => 1,
+            Direction::Withdraw => -1,
         };
-        if dir_write.is_err() {
-            // Level unknown now: force a setup wait next time.
-            self.dir_high = None;
-            return Err(PumpError::Pin(PinRole::Dir));
-        }
-        if self.dir_high != Some(dir_high) {
-            delay.delay_us(DIR_SETUP_US).await;
-            self.dir_high = Some(dir_high);
-        }
-
-        self.pins
-            .step
-            .set_high()
-            .map_err(|_| PumpError::Pin(PinRole::Step))?;
-        // The driver moved on the rising edge.
-        self.position_steps = next;
-        delay.delay_us(STEP_HIGH_US).await;
-        self.pins
-            .step
-            .set_low()
-            .map_err(|_| PumpError::Pin(PinRole::Step))?;
-        delay.delay_us(STEP_LOW_US).await;
+        self.pins.step.start(first_us, second_us);
         Ok(())
     }
 
+    /// Queues the next period (µs; [`StepPulses::queue_period`]).
+    pub fn queue_period(&mut self, period_us: u32) {
+        self.pins.step.queue_period(period_us);
+    }
+
+    /// Ends the run after the pulse in progress ([`StepPulses::finish`]).
+    pub fn finish(&mut self) {
+        self.pins.step.finish();
+    }
+
+    /// Stops the step timer at once ([`StepPulses::stop`]) and counts what
+    /// it emitted.
+    pub fn stop(&mut self) {
+        self.pins.step.stop();
+        self.sync();
+    }
+
+    /// True while the step timer runs.
+    pub fn running(&self) -> bool {
+        self.pins.step.running()
+    }
+
+    /// Brings the position up to the pulses the timer completed in this
+    /// run and returns their number.
+    pub fn sync(&mut self) -> u32 {
+        let pulses = self.pins.step.pulses();
+        // The stroke is far below i32::MAX / 2 steps (validated): a run
+        // cannot overflow; saturate rather than wrap if it ever did.
+        let moved = i32::try_from(pulses).unwrap_or(i32::MAX);
+        self.position_steps = self
+            .run_base_steps
+            .saturating_add(self.run_sign.saturating_mul(moved));
+        pulses
+    }
+
+    /// Waits until the timer completes a pulse after the `seen`-th of
+    /// this run, or stops ([`StepPulses::wait_pulse`]).
+    pub async fn wait_pulse(&mut self, seen: u32) {
+        self.pins.step.wait_pulse(seen).await;
+    }
+
     /// Plunger position (microsteps, positive = injected) since power-up or
-    /// the last [`SyringePump::zero_position`].
+    /// the last [`SyringePump::zero_position`], as of the last
+    /// [`SyringePump::sync`].
     pub fn position_steps(&self) -> i32 {
         self.position_steps
     }
@@ -288,8 +331,16 @@ where
         self.config.ml_from_steps(self.position_steps)
     }
 
-    /// Declares the current plunger position the zero of volume.
-    pub fn zero_position(&mut self) {
+    /// Declares the current plunger position the zero of volume (stopped
+    /// only; refused while the timer runs).
+    pub fn zero_position(&mut self) -> Result<(), PumpError> {
+        if self.running() {
+            return Err(PumpError::Running);
+        }
+        let moved = i32::try_from(self.sync()).unwrap_or(i32::MAX);
+        // The finished run's pulses still count in `sync`: offset them.
+        self.run_base_steps = self.run_sign.saturating_mul(moved).saturating_neg();
         self.position_steps = 0;
+        Ok(())
     }
 }

@@ -10,7 +10,7 @@
 //! capped there), and a step that would decelerate below zero ends at
 //! zero. From standstill the first step takes `√(2s/a)`.
 
-use super::config::MAX_RATE_ML_PER_S;
+use super::config::{MAX_RATE_ML_PER_S, MIN_RATE_ML_PER_S};
 use super::Direction;
 
 /// Largest change of the volume rate (mL/s²): 4 mL/s is reached in 20 ms
@@ -63,11 +63,14 @@ impl StepPlanner {
     }
 
     /// Plans the next step toward `target_ml_per_s` (signed; clamped to
-    /// ±[`MAX_RATE_ML_PER_S`]; NaN counts as 0). A target of the other
+    /// ±[`MAX_RATE_ML_PER_S`]; NaN and anything slower than
+    /// [`MIN_RATE_ML_PER_S`] count as 0, so no step is longer than the
+    /// step timer gives). A target of the other
     /// sign first decelerates to exactly 0: the direction only changes
     /// from standstill.
     pub fn next(&mut self, target_ml_per_s: f32) -> Plan {
-        let target = if target_ml_per_s.is_nan() {
+        let target = if target_ml_per_s.is_nan() || libm::fabsf(target_ml_per_s) < MIN_RATE_ML_PER_S
+        {
             0.0
         } else {
             target_ml_per_s.clamp(-MAX_RATE_ML_PER_S, MAX_RATE_ML_PER_S)
@@ -207,6 +210,10 @@ mod tests {
         assert_eq!(*rates.last().unwrap(), 0.0);
         assert_eq!(p.next(0.0), Plan::Idle);
         assert_eq!(p.next(f32::NAN), Plan::Idle);
+        // Slower than the pump's slowest rate: no motion (a step would
+        // outlast the step timer).
+        assert_eq!(p.next(0.049), Plan::Idle);
+        assert_eq!(p.next(-0.049), Plan::Idle);
         // From standstill the first step takes √(2s/a) = 2.047 ms.
         assert_eq!(
             p.next(-1.0),

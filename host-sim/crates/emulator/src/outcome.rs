@@ -1,10 +1,14 @@
 //! What a run showed, measured from its [`Trace`], and whether that is what
 //! its scenario expects: cycles and advance per cycle for normal runs;
-//! fault, detection time against the firmware's stated bound, a stopped
-//! pump and the time spent above the pressure limit for faults.
+//! fault, detection time against the firmware's stated bound, the time to
+//! the line vented (the plant's valve in the loop) against the end-to-end
+//! bound stated with the board's timing, a stopped pump and the time spent
+//! above the pressure limit for faults.
 
 use serde::Serialize;
-use urechis::controller::{detection_bound_ms, Fault, PumpCommand, State};
+use urechis::controller::{
+    detection_bound_ms, end_to_end_bound_ms, Fault, PumpCommand, State, BOARD_TIMING,
+};
 
 use super::plant::{PlantFault, SensorBias};
 use super::run::Trace;
@@ -27,6 +31,21 @@ pub struct Detection {
     /// Added to the bound for a reference the controller sees through the
     /// sensor: its largest sample age (ms); 0 otherwise.
     pub sensor_allowance_ms: u32,
+    /// The first millisecond from the fault step on with the plant's
+    /// relief valve open (ms), if it opened.
+    pub vented_ms: Option<u32>,
+    /// The end-to-end bound stated with the board's timing
+    /// ([`end_to_end_bound_ms`] with [`BOARD_TIMING`]; its valve response
+    /// is the one the bound assumes, not the plant's) (ms).
+    pub end_to_end_bound_ms: u32,
+}
+
+impl Detection {
+    /// `vented_ms − reference_ms` (ms), if the valve opened.
+    pub fn end_to_end_ms(&self) -> Option<i64> {
+        self.vented_ms
+            .map(|v| i64::from(v) - i64::from(self.reference_ms))
+    }
 }
 
 /// The longest stretch the line pressure spent above the limit, and what
@@ -42,8 +61,10 @@ pub struct Detection {
 /// can hide readings until the last one turns stale (`sensor_stale_ms` +
 /// one period, when the controller faults anyway), and an injected
 /// dropout or hang is caught within its own bound instead. Until then the
-/// pump pushes at most `max_rate` × that time of water past the limit, and
-/// the open relief valve vents at least `g · limit` while above it.
+/// pump pushes at most `max_rate` × that time of water past the limit, the
+/// relief valve opens within the response the firmware's bounds assume
+/// ([`BOARD_TIMING`]), and once open vents at least `g · limit` while
+/// above it.
 /// A frozen sensor shows nothing while the pump stands still, so no bound
 /// holds then (`allowed_ms` = `None`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -157,6 +178,13 @@ impl Outcome {
                 d.sensor_allowance_ms,
                 self.pump_disabled_in_fault,
                 self.steps_after_fault
+            ));
+            let vented = d.end_to_end_ms().map_or("never".to_owned(), |e| {
+                format!("{e} ms after the reference")
+            });
+            t.push_str(&format!(
+                "  line vented {vented} (end-to-end bound {} ms)\n",
+                d.end_to_end_bound_ms
             ));
         }
         let o = &self.over_limit;
@@ -289,6 +317,15 @@ pub fn evaluate(trace: &Trace) -> Outcome {
                         // controller through the sensor.
                         Reference::BelowRange => sc.plant.sensor.max_sample_age_ms(),
                     };
+                    // Index i holds the millisecond ending at i: the valve
+                    // vented from i − 1.
+                    let vented_ms = trace
+                        .valve_open_ms
+                        .iter()
+                        .enumerate()
+                        .skip(at as usize + 1)
+                        .find(|(_, open)| **open)
+                        .map(|(i, _)| i as u32 - 1);
                     let d = Detection {
                         fault: got,
                         reference_ms: r,
@@ -296,6 +333,8 @@ pub fn evaluate(trace: &Trace) -> Outcome {
                         latency_ms: i64::from(at) - i64::from(r),
                         bound_ms: detection_bound_ms(got, &params),
                         sensor_allowance_ms,
+                        vented_ms,
+                        end_to_end_bound_ms: end_to_end_bound_ms(got, &params, &BOARD_TIMING),
                     };
                     if got != want {
                         failures.push(format!("expected fault {want:?}, got {got:?}"));
@@ -306,6 +345,17 @@ pub fn evaluate(trace: &Trace) -> Outcome {
                              sensor allowance {} ms",
                             d.latency_ms, d.bound_ms, d.sensor_allowance_ms
                         ));
+                    }
+                    match d.end_to_end_ms() {
+                        Some(e) if e <= i64::from(d.end_to_end_bound_ms) => {}
+                        Some(e) => failures.push(format!(
+                            "{got:?}: the line vented {e} ms after the reference; end-to-end \
+                             bound {} ms (valve assumed {} ms, the plant's {} ms)",
+                            d.end_to_end_bound_ms,
+                            BOARD_TIMING.valve_response_ms,
+                            sc.plant.valve_response_ms
+                        )),
+                        None => failures.push(format!("{got:?}: the relief valve never opened")),
                     }
                     detection = Some(d);
                 }
@@ -483,6 +533,6 @@ fn over_limit(trace: &Trace) -> OverLimit {
         threshold_kpa: threshold,
         peak_kpa: peak,
         longest_ms: longest,
-        allowed_ms: (!blind).then_some(detect_ms + vent_ms + 1),
+        allowed_ms: (!blind).then_some(detect_ms + BOARD_TIMING.valve_response_ms + vent_ms + 1),
     }
 }

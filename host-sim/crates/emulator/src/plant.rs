@@ -13,7 +13,9 @@
 //! - the **line** between the pump and the head, with the relief valve on
 //!   the pump side of the sensor. The water delivered into the rig model is
 //!   `displaced − vented − stored`: the valve (open in Fault) vents
-//!   `relief_conductance · p_line` mL/s; a **blockage** (injected) freezes
+//!   `relief_conductance · p_line` mL/s once open, and it opens (and
+//!   closes) `valve_response_ms` after it is commanded, a pure delay; a
+//!   **blockage** (injected) freezes
 //!   the volume reaching the head, and what the pump pushes on goes into
 //!   the line's compliance, so the line reads
 //!   `p_head + stored / line_compliance` (a stiff spring: a blocked line
@@ -25,10 +27,11 @@
 //! Time advances in 1 ms sub-steps; [`Plant::run_period`] runs one control
 //! period.
 
+use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use anyhow::{ensure, Result};
-use urechis::controller::{EndStops, Outputs, PressureSample, PumpCommand};
+use urechis::controller::{EndStops, Outputs, PressureSample, PumpCommand, BOARD_TIMING};
 use urechis::drivers::pump::PumpConfig;
 
 use super::pump::{us_from_ms, StepperPump};
@@ -59,6 +62,9 @@ pub struct PlantConfig {
     pub line_compliance_ml_per_kpa: f64,
     /// Relief valve flow per kPa of line pressure when open (mL/s/kPa).
     pub relief_conductance_ml_per_s_per_kpa: f64,
+    /// Time from a command to the relief valve to the valve following it
+    /// (ms), opening and closing alike.
+    pub valve_response_ms: u32,
     /// Speed of the advance drive (mm/s).
     pub advance_speed_mm_per_s: f64,
     /// The head slides forward only within this of D0 (mm): wider, it is
@@ -72,7 +78,9 @@ impl PlantConfig {
     /// healthy plant matches the table; the board's pump and sensor; a
     /// half-full 50 mL syringe; a stiff line (0.02 mL/kPa: 100 kPa/s at
     /// 2 mL/s against a blockage); a relief valve venting 2 mL/s per kPa
-    /// (10 ms time constant on the blocked line); an advance drive at
+    /// (10 ms time constant on the blocked line) with the response the
+    /// firmware's end-to-end bounds assume
+    /// ([`BOARD_TIMING`]`.valve_response_ms`, 50 ms); an advance drive at
     /// 1 mm/s (1 mm per default 1 s advance, the paper's advance per
     /// cycle) that cannot pull a head wider than D0 + 0.2 mm.
     pub fn paper() -> Self {
@@ -96,6 +104,7 @@ impl PlantConfig {
             sensor,
             line_compliance_ml_per_kpa: 0.02,
             relief_conductance_ml_per_s_per_kpa: 2.0,
+            valve_response_ms: BOARD_TIMING.valve_response_ms,
             advance_speed_mm_per_s: 1.0,
             anchor_clearance_mm: 0.2,
         }
@@ -193,6 +202,8 @@ pub struct Truth {
     pub vented_ml: f64,
     /// Distance the advance drive moved the head (mm).
     pub advance_mm: f64,
+    /// The relief valve is open (venting), as it is, not as commanded.
+    pub valve_open: bool,
     /// End-stop switches.
     pub end_stops: EndStops,
     /// The line is blocked.
@@ -211,7 +222,12 @@ pub struct Plant {
     /// Delivered volume frozen by a blockage (mL).
     blocked_at_ml: Option<f64>,
     vented_ml: f64,
+    /// The valve as it is.
     valve_open: bool,
+    /// The valve as last commanded.
+    valve_commanded: bool,
+    /// Commands on their way to the valve: (when it follows, open).
+    valve_changes: VecDeque<(u32, bool)>,
     advance_on: bool,
     advance_mm: f64,
     t_ms: u32,
@@ -261,6 +277,8 @@ impl Plant {
             blocked_at_ml: None,
             vented_ml: 0.0,
             valve_open: false,
+            valve_commanded: false,
+            valve_changes: VecDeque::new(),
             advance_on: false,
             advance_mm: 0.0,
             t_ms: 0,
@@ -277,6 +295,7 @@ impl Plant {
                 counted_steps: 0,
                 vented_ml: 0.0,
                 advance_mm: 0.0,
+                valve_open: false,
                 end_stops: EndStops::default(),
                 blocked: false,
             },
@@ -330,11 +349,22 @@ impl Plant {
         }
     }
 
-    /// Applies the controller's outputs at `now_ms`.
+    /// Applies the controller's outputs at `now_ms` (the valve follows
+    /// `valve_response_ms` later).
     pub fn apply(&mut self, outputs: &Outputs, now_ms: u32) {
         self.pump.apply(outputs.pump, us_from_ms(now_ms));
-        self.valve_open = outputs.relief_valve_open;
+        self.command_valve(outputs.relief_valve_open, now_ms);
         self.advance_on = outputs.advance_drive;
+    }
+
+    /// Commands the relief valve at `now_ms`: it follows
+    /// `valve_response_ms` later.
+    fn command_valve(&mut self, open: bool, now_ms: u32) {
+        if open != self.valve_commanded {
+            self.valve_commanded = open;
+            let at = now_ms.saturating_add(self.config.valve_response_ms);
+            self.valve_changes.push_back((at, open));
+        }
     }
 
     /// One microstep of the pump driven by its STEP pin (the virtual
@@ -344,9 +374,10 @@ impl Plant {
         self.pump.pulse(direction)
     }
 
-    /// Sets the relief valve and the advance drive from their pins.
+    /// Sets the relief valve (which follows `valve_response_ms` later)
+    /// and the advance drive from their pins, at the plant's time.
     pub fn set_outputs(&mut self, valve_open: bool, advance_on: bool) {
-        self.valve_open = valve_open;
+        self.command_valve(valve_open, self.t_ms);
         self.advance_on = advance_on;
     }
 
@@ -424,6 +455,13 @@ impl Plant {
     /// One sub-step `[t0_ms, t1_ms)`.
     fn substep(&mut self, t0_ms: u32, t1_ms: u32) {
         let dt_s = f64::from(t1_ms - t0_ms) / 1000.0;
+        while let Some(&(at, open)) = self.valve_changes.front() {
+            if at > t0_ms {
+                break;
+            }
+            self.valve_open = open;
+            self.valve_changes.pop_front();
+        }
         self.pump.advance(us_from_ms(t0_ms), us_from_ms(t1_ms));
         let displaced = self.pump.displaced_ml();
         // The open valve vents g·p_line. A blocked line is a linear spring
@@ -473,6 +511,7 @@ impl Plant {
             counted_steps: self.pump.counted_steps(),
             vented_ml: self.vented_ml,
             advance_mm: self.advance_mm,
+            valve_open: self.valve_open,
             end_stops: self.pump.end_stops(),
             blocked: self.blocked_at_ml.is_some(),
         };

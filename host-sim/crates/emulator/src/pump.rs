@@ -1,19 +1,24 @@
 //! The stepper syringe pump as the board drives it: the firmware's own
-//! [`PumpConfig`] turns a commanded rate into a microstep interval and
-//! microsteps into millilitres; the schedule follows the board's pump task
-//! (a start or a reversal steps at once, then every interval; a rate change
-//! in the same direction keeps the schedule), and a step towards a closed
-//! end-stop is refused and not counted, as the driver does.
+//! step sequencing ([`StepSequencer`]: the trapezoidal ramp, reversals
+//! through rest, a stop at a triggered end-stop) on the firmware's model
+//! of the board's step timer ([`SimStepTimer`]), serviced the moment each
+//! pulse completes and at each command, as the board's pump task is; the
+//! firmware's [`PumpConfig`] turns microsteps into millilitres. The
+//! plunger moves on each rising edge; the count (what the firmware reports
+//! as its volume) is the pulses the timer completed.
 //!
 //! Two fault modes sit in the mechanics, below what the firmware can see:
 //! - **stall**: the motor loses its steps (skipped steps, a sheared
 //!   coupling): the driver still counts every step, the plunger does not
 //!   move;
 //! - the end-stops close at the two ends of the barrel's travel
-//!   (`empty` with the plunger fully in, `full` fully out).
+//!   (`empty` with the plunger fully in, `full` fully out); the plunger
+//!   cannot move past them.
 
 use urechis::controller::{EndStops, PumpCommand};
-use urechis::drivers::pump::{Direction, PumpConfig};
+use urechis::drivers::pump::{
+    Direction, PumpConfig, PumpError, SimStepTimer, StepDrive, StepSequencer,
+};
 
 /// Microseconds per millisecond.
 const US_PER_MS: u64 = 1000;
@@ -29,11 +34,16 @@ pub struct StepperPump {
     barrel_ml: f64,
     /// Net volume the plunger really pushed out since power-up (mL).
     displaced_ml: f64,
-    /// The command in force and the time (µs) of the next step under it.
+    /// The command in force.
     command: PumpCommand,
-    next_step_us: u64,
     /// The motor loses every step (they are still counted).
     stalled: bool,
+    /// The board's step timer and the pump task's sequencing of it.
+    timer: SimStepTimer,
+    sequencer: StepSequencer,
+    /// The count when the timer last started, and the run's direction.
+    run_base_steps: i32,
+    direction: Direction,
 }
 
 impl StepperPump {
@@ -46,8 +56,11 @@ impl StepperPump {
             barrel_ml: fill_ml.clamp(0.0, f64::from(config.stroke_ml)),
             displaced_ml: 0.0,
             command: PumpCommand::Disable,
-            next_step_us: 0,
             stalled: false,
+            timer: SimStepTimer::new(),
+            sequencer: StepSequencer::new(config.ml_per_step()),
+            run_base_steps: 0,
+            direction: Direction::Inject,
         }
     }
 
@@ -62,9 +75,16 @@ impl StepperPump {
         self.config.ml_from_steps(self.counted_steps)
     }
 
-    /// Microsteps counted since power-up.
+    /// Microsteps the driver took since power-up: one per rising edge,
+    /// so a pulse still high counts here before the firmware's count
+    /// (pulses completed, [`StepperPump::reported_volume_ml`]) has it.
     pub fn counted_steps(&self) -> i32 {
-        self.counted_steps
+        let high = i32::from(self.timer.step_high());
+        let sign = match self.direction {
+            Direction::Inject => 1,
+            Direction::Withdraw => -1,
+        };
+        self.counted_steps.saturating_add(sign * high)
     }
 
     /// Water in the barrel (mL), 0 (empty) to the stroke (full).
@@ -101,56 +121,91 @@ impl StepperPump {
         self.command
     }
 
-    /// Applies a new command at time `now_us`, like the board's pump task:
-    /// a start or a reversal steps at once, a rate change in the same
-    /// direction keeps the running schedule.
-    pub fn apply(&mut self, command: PumpCommand, now_us: u64) {
-        if !same_motion(self.command, command) {
-            self.next_step_us = now_us;
-        }
-        self.command = command;
+    /// The signed rate of the last planned step (mL/s).
+    pub fn planned_rate_ml_per_s(&self) -> f32 {
+        self.sequencer.rate_ml_per_s()
     }
 
-    /// Runs the motor over `[from_us, to_us)`: every step due in that
-    /// window, each refused when the end-stop ahead is closed. Returns the
-    /// microsteps counted (signed).
-    pub fn advance(&mut self, from_us: u64, to_us: u64) -> i32 {
-        let PumpCommand::Run { rate_ml_per_s } = self.command else {
-            return 0;
-        };
-        let (Some(direction), Some(interval_us)) = (
-            Direction::from_rate(rate_ml_per_s),
-            self.config.step_interval_us(rate_ml_per_s),
-        ) else {
-            return 0;
-        };
-        // After a pause (the board's "no burst to catch up") the schedule
-        // restarts at the window.
-        if self.next_step_us < from_us {
-            self.next_step_us = from_us;
-        }
-        let mut counted = 0;
-        while self.next_step_us < to_us {
-            if self.step(direction) {
-                counted += match direction {
-                    Direction::Inject => 1,
-                    Direction::Withdraw => -1,
-                };
+    /// Applies a new command at time `now_us` (not before the last
+    /// [`StepperPump::advance`]), as the board's pump task does: `Disable`
+    /// stops the timer at once; `Hold` and `Run` set the plan's target and
+    /// start a run from rest.
+    pub fn apply(&mut self, command: PumpCommand, now_us: u64) {
+        self.run_timer(now_us);
+        self.command = command;
+        let mut sequencer = self.sequencer;
+        match command {
+            PumpCommand::Disable => {
+                StepDrive::stop(self);
+                sequencer.stop_now();
+                sequencer.set_target(0.0);
             }
-            self.next_step_us += u64::from(interval_us);
+            PumpCommand::Hold => sequencer.set_target(0.0),
+            PumpCommand::Run { rate_ml_per_s } => sequencer.set_target(rate_ml_per_s),
         }
-        counted
+        if command != PumpCommand::Disable {
+            // A refusal (an end-stop ahead) leaves the pump at rest; the
+            // controller sees the switch.
+            let _ = sequencer.service(self);
+        }
+        self.sequencer = sequencer;
+    }
+
+    /// Runs the motor over `[from_us, to_us)`: every edge the timer makes,
+    /// the plan serviced as each pulse completes. Returns the microsteps
+    /// counted (signed).
+    pub fn advance(&mut self, from_us: u64, to_us: u64) -> i32 {
+        let before = self.counted_steps;
+        self.run_timer(from_us);
+        while let Some(done_us) = self.timer.next_completion_us().filter(|t| *t <= to_us) {
+            self.run_timer(done_us);
+            let mut sequencer = self.sequencer;
+            let _ = sequencer.service(self);
+            self.sequencer = sequencer;
+        }
+        self.run_timer(to_us);
+        self.sync_count();
+        self.counted_steps - before
+    }
+
+    /// The timer up to `t_us`, the plunger moved by its edges.
+    fn run_timer(&mut self, t_us: u64) {
+        let mut edges = 0u32;
+        self.timer.advance(t_us, |_| edges += 1);
+        for _ in 0..edges {
+            self.move_plunger(self.direction);
+        }
+    }
+
+    /// The count from the pulses the timer completed in this run.
+    fn sync_count(&mut self) -> u32 {
+        let pulses = self.timer.pulses();
+        let moved = i32::try_from(pulses).unwrap_or(i32::MAX);
+        let sign = match self.direction {
+            Direction::Inject => 1,
+            Direction::Withdraw => -1,
+        };
+        self.counted_steps = self.run_base_steps.saturating_add(sign * moved);
+        pulses
     }
 
     /// One microstep driven from outside (a STEP pulse with DIR set for
     /// `direction`), as the virtual board's pins deliver it; false when
     /// refused (end-stop ahead closed).
     pub fn pulse(&mut self, direction: Direction) -> bool {
-        self.step(direction)
+        if !self.move_plunger(direction) {
+            return false;
+        }
+        self.counted_steps = self.counted_steps.saturating_add(match direction {
+            Direction::Inject => 1,
+            Direction::Withdraw => -1,
+        });
+        true
     }
 
-    /// One microstep; false when refused (end-stop ahead closed).
-    fn step(&mut self, direction: Direction) -> bool {
+    /// The plunger one microstep in `direction`, unless the end-stop ahead
+    /// is closed (false) or the motor is stalled (true, no motion).
+    fn move_plunger(&mut self, direction: Direction) -> bool {
         let stops = self.end_stops();
         let (blocked, sign) = match direction {
             Direction::Inject => (stops.empty, 1.0),
@@ -159,10 +214,6 @@ impl StepperPump {
         if blocked {
             return false;
         }
-        let Some(next) = self.counted_steps.checked_add(sign as i32) else {
-            return false;
-        };
-        self.counted_steps = next;
         if !self.stalled {
             let ml = sign * f64::from(self.config.ml_per_step());
             self.displaced_ml += ml;
@@ -172,24 +223,71 @@ impl StepperPump {
     }
 }
 
+impl StepDrive for StepperPump {
+    fn sync(&mut self) -> u32 {
+        self.sync_count()
+    }
+
+    fn running(&self) -> bool {
+        self.timer.running()
+    }
+
+    fn check_ahead(&mut self, direction: Direction) -> Result<(), PumpError> {
+        let stops = self.end_stops();
+        let blocked = match direction {
+            Direction::Inject => stops.empty,
+            Direction::Withdraw => stops.full,
+        };
+        if blocked {
+            Err(PumpError::EndStop)
+        } else {
+            Ok(())
+        }
+    }
+
+    fn start(
+        &mut self,
+        direction: Direction,
+        first_us: u32,
+        second_us: u32,
+    ) -> Result<(), PumpError> {
+        if self.command == PumpCommand::Disable {
+            return Err(PumpError::Disabled);
+        }
+        self.sync_count();
+        if self.timer.running() {
+            return Err(PumpError::Running);
+        }
+        self.check_ahead(direction)?;
+        self.run_base_steps = self.counted_steps;
+        self.direction = direction;
+        self.timer.start(first_us, second_us);
+        Ok(())
+    }
+
+    fn queue_period(&mut self, period_us: u32) {
+        self.timer.queue_period(period_us);
+    }
+
+    fn finish(&mut self) {
+        self.timer.finish();
+    }
+
+    fn stop(&mut self) {
+        self.timer.stop();
+        self.sync_count();
+    }
+}
+
 /// Milliseconds to microseconds.
 pub fn us_from_ms(ms: u32) -> u64 {
     u64::from(ms) * US_PER_MS
 }
 
-/// True when `new` keeps stepping the same way as `old` (the board's rule).
-fn same_motion(old: PumpCommand, new: PumpCommand) -> bool {
-    match (old, new) {
-        (PumpCommand::Run { rate_ml_per_s: a }, PumpCommand::Run { rate_ml_per_s: b }) => {
-            Direction::from_rate(a).is_some() && Direction::from_rate(a) == Direction::from_rate(b)
-        }
-        _ => false,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use urechis::drivers::pump::{Plan, StepPlanner, STEP_HIGH_US};
 
     fn run(rate: f32) -> PumpCommand {
         PumpCommand::Run {
@@ -197,25 +295,41 @@ mod tests {
         }
     }
 
+    /// Pulses the firmware's planner completes toward `target` from rest
+    /// at 0 by `to_us`.
+    fn planned_pulses(config: &PumpConfig, target: f32, to_us: u64) -> i32 {
+        let mut p = StepPlanner::new(config.ml_per_step());
+        let (mut t, mut n) = (0u64, 0);
+        while let Plan::Step { wait_us, .. } = p.next(target) {
+            t += u64::from(wait_us);
+            if t + u64::from(STEP_HIGH_US) > to_us {
+                break;
+            }
+            n += 1;
+        }
+        n
+    }
+
     #[test]
-    fn steps_at_the_config_interval() {
+    fn steps_follow_the_firmware_plan() {
         let config = PumpConfig::default();
         let mut pump = StepperPump::new(config, 25.0);
         pump.apply(run(1.0), 0);
-        let steps = pump.advance(0, 1_000_000);
-        // One second at 1 mL/s: a step at 0 and every
-        // ceil(1e6 · ml_per_step) µs after.
-        let interval = config.step_interval_us(1.0).unwrap();
-        assert_eq!(steps as u64, 1_000_000_u64.div_ceil(u64::from(interval)));
+        // Advanced in 1 ms windows, as the plant does: the same pulses as
+        // the planner's schedule from 0.
+        let mut steps = 0;
+        for ms in 0..1000 {
+            steps += pump.advance(ms * 1000, (ms + 1) * 1000);
+        }
+        assert_eq!(steps, planned_pulses(&config, 1.0, 1_000_000));
+        // One second at 1 mL/s less the 5 ms ramp's 2.5 µL: 1 mL within
+        // a step or two.
         let ml = f64::from(pump.reported_volume_ml());
-        assert_eq!(ml, f64::from(config.ml_from_steps(steps)));
-        // The interval rounds up: never faster than asked, slower by at
-        // most one µs per interval.
-        let slowest = f64::from(interval - 1) / f64::from(interval);
         assert!(
-            ml <= 1.0 + f64::from(config.ml_per_step()) && ml >= slowest - 1e-3,
+            (ml - 0.9975).abs() < 2.0 * f64::from(config.ml_per_step()),
             "{ml}"
         );
+        assert_eq!(ml, f64::from(config.ml_from_steps(steps)));
         // f32 count vs f64 sum of the same steps.
         assert!((pump.displaced_ml() - ml).abs() < 1e-6);
     }
@@ -223,18 +337,12 @@ mod tests {
     #[test]
     fn rate_is_clamped_to_the_pump_maximum() {
         let config = PumpConfig::default();
-        let mut pump = StepperPump::new(config, 25.0);
-        pump.apply(run(-4.0), 0);
-        let steps = pump.advance(0, 1_000_000);
-        let interval = config
-            .step_interval_us(urechis::drivers::pump::MAX_RATE_ML_PER_S)
-            .unwrap();
-        assert_eq!(config.step_interval_us(-4.0), Some(interval));
-        assert_eq!(
-            -i64::from(steps),
-            1_000_000_u64.div_ceil(u64::from(interval)) as i64
-        );
-        assert!(pump.displaced_ml() < 0.0);
+        let mut fast = StepperPump::new(config, 25.0);
+        fast.apply(run(-10.0), 0);
+        let steps = fast.advance(0, 1_000_000);
+        assert_eq!(-steps, planned_pulses(&config, -4.0, 1_000_000));
+        assert_eq!(fast.planned_rate_ml_per_s(), -4.0);
+        assert!(fast.displaced_ml() < 0.0);
     }
 
     #[test]

@@ -54,6 +54,9 @@ pub struct Trace {
     pub sensed_kpa_ms: Vec<f32>,
     /// Whether a pump end-stop was closed, index = time in ms.
     pub end_stop_ms: Vec<bool>,
+    /// Whether the relief valve was open (as it was, not as commanded)
+    /// through the millisecond ending at the index.
+    pub valve_open_ms: Vec<bool>,
     /// The pressure zero the controller was given at boot (absolute kPa).
     pub pressure_zero_kpa: f32,
 }
@@ -84,6 +87,7 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
     let mut line_kpa_ms = vec![start.line_kpa as f32];
     let mut sensed_kpa_ms = vec![start.sensed_kpa as f32];
     let mut end_stop_ms = vec![start.end_stops.empty || start.end_stops.full];
+    let mut valve_open_ms = vec![start.valve_open];
     let mut entries = StateEntries::default();
     let mut settled_at: Option<u32> = None;
     let mut now_ms = 0u32;
@@ -132,6 +136,7 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
             sensed_kpa_ms.push(t.sensed_kpa as f32);
             let stops = t.end_stops;
             end_stop_ms.push(stops.empty || stops.full);
+            valve_open_ms.push(t.valve_open);
         })?;
         now_ms += CONTROL_PERIOD_MS;
 
@@ -157,6 +162,7 @@ pub fn run(scenario: &Scenario, seed: u64) -> Result<Trace> {
         line_kpa_ms,
         sensed_kpa_ms,
         end_stop_ms,
+        valve_open_ms,
         pressure_zero_kpa: plant.pressure_zero_kpa(),
     })
 }

@@ -13,8 +13,8 @@
 //! - **over-pressure bounded**: the line pressure stays above the limit
 //!   (as the sensor, bias and noise included, must show it) no longer than
 //!   the firmware's detection bound plus the sensor's sample age plus the
-//!   valve's venting time ([`OverLimit`]; not claimed with a frozen sensor,
-//!   which is blind while the pump stands still);
+//!   valve's stated response and venting time ([`OverLimit`]; not claimed
+//!   with a frozen sensor, which is blind while the pump stands still);
 //! - **volume never beyond the syringe**: the plunger stays within the
 //!   barrel, and the reported volume never passes `max_volume_ml` or
 //!   `min_volume_ml` by more than one control period of pumping;

@@ -9,10 +9,12 @@
 //! - the **MS5837** answers the driver's real command bytes (reset, PROM
 //!   with its CRC-4, D1/D2 conversions, ADC read) on a simulated I²C bus,
 //!   its pressure the plant's line pressure plus the atmosphere and noise;
-//! - **STEP/DIR/ENABLE** move the plant's syringe pump one microstep per
-//!   rising STEP edge with the driver on, and the **end-stops** read its
-//!   plunger position; the **relief valve** and **advance drive** go to
-//!   the plant;
+//! - **STEP** comes from the firmware's model of its step timer
+//!   ([`urechis::drivers::pump::SimStepTimer`], edges at the queued
+//!   periods on the board's clock), each rising edge with the driver on
+//!   (ENABLE) moving the plant's syringe pump one microstep in DIR's
+//!   direction; the **end-stops** read its plunger position; the **relief
+//!   valve** and **advance drive** go to the plant;
 //! - the **flash** is a RAM sector with NOR semantics
 //!   ([`urechis::store::RamFlash`]) that survives a [`VirtualBoard::reboot`];
 //! - the **UART** is a pseudo-terminal, paced at 115200 baud.
@@ -47,7 +49,7 @@ use emulator::{Injection, Plant, PlantConfig};
 use serialport::{SerialPort, TTYPort};
 use urechis::controller::{Controller, State};
 use urechis::drivers::ms5837::Ms5837;
-use urechis::drivers::pump::{PumpConfig, PumpPins, SyringePump};
+use urechis::drivers::pump::{PumpConfig, PumpPins, SimStepTimer, SyringePump};
 use urechis::protocol::{Hello, TableSource};
 use urechis::store::{Layout, RamFlash, Store};
 use urechis::table::generated::TABLE;
@@ -57,6 +59,7 @@ use urechis::tasks::{self, stored_table, Shared};
 
 use peripherals::{
     lock, EndStopPin, Ms5837Sim, Outputs, PinRole, PtyTx, PumpPin, Rig, RxPipe, SharedRig,
+    StepTimerPin,
 };
 
 /// The virtual flash: a 16 KiB table area and a 16 KiB zero area.
@@ -135,7 +138,7 @@ impl VirtualBoard {
             plant,
             atmosphere_kpa: config.sensor.atmosphere_kpa,
             noise_kpa: config.sensor.noise_kpa,
-            step_high: false,
+            step_timer: SimStepTimer::new(),
             dir_high: false,
             enabled: false,
             inject_dir_high: PumpConfig::default().inject_dir_high,
@@ -306,6 +309,7 @@ fn plant_clock(rig: &SharedRig, control: &Control, mut pending: Vec<Injection>) 
         entries.note(state, now_ms);
         {
             let mut r = lock(rig);
+            r.sync_steps();
             let (valve, advance) = (r.valve_open, r.advance_on);
             r.plant.set_outputs(valve, advance);
             r.plant.advance_to(now_ms, 100);
@@ -336,8 +340,11 @@ fn mcu(writer: Box<dyn SerialPort>, rig: &SharedRig, control: &Control) {
         tx = t;
         // What the host sent while the MCU was in reset is lost.
         control.rx.clear();
-        // Pins go to their reset levels: driver off, valve vented.
+        // Pins go to their reset levels: timer stopped, driver off, valve
+        // vented.
         let mut r = lock(rig);
+        r.sync_steps();
+        r.step_timer.stop();
         r.enabled = false;
         r.valve_open = true;
         r.advance_on = false;
@@ -369,7 +376,7 @@ fn boot(
         stored_table: stored,
     };
     let pins = PumpPins {
-        step: PumpPin::new(Arc::clone(rig), PinRole::Step),
+        step: StepTimerPin::new(Arc::clone(rig)),
         dir: PumpPin::new(Arc::clone(rig), PinRole::Dir),
         enable: PumpPin::new(Arc::clone(rig), PinRole::Enable),
         end_empty: EndStopPin::new(Arc::clone(rig), true),

@@ -21,7 +21,7 @@ use urechis::drivers::ms5837::{
     compensate_raw, crc4, Calibration, ADDRESS, CMD_ADC_READ, CMD_CONVERT_D1, CMD_CONVERT_D2,
     CMD_PROM_READ, CMD_RESET,
 };
-use urechis::drivers::pump::Direction;
+use urechis::drivers::pump::{Direction, SimStepTimer, StepPulses};
 use urechis::safety::{advance_level, safe_outputs, valve_level, SafePins};
 use urechis::tasks::sensor::{BusRecovery, MODEL};
 use urechis::tasks::ControlIo;
@@ -36,8 +36,9 @@ pub struct Rig {
     pub atmosphere_kpa: f64,
     /// The sensor's RMS noise (kPa).
     pub noise_kpa: f64,
-    /// STEP is high.
-    pub step_high: bool,
+    /// The step timer on STEP (TIM1 CH3 on the board), on the board's
+    /// clock: [`Rig::sync_steps`] delivers its edges to the plant.
+    pub step_timer: SimStepTimer,
     /// DIR is high.
     pub dir_high: bool,
     /// ENABLE is low (the driver is on).
@@ -56,6 +57,36 @@ pub struct Rig {
     pub bus_recoveries: u64,
 }
 
+impl Rig {
+    /// Runs the step timer up to the board's clock now: each rising edge
+    /// with the driver on moves the plant's pump one microstep in DIR's
+    /// direction (refused at a closed end-stop).
+    pub fn sync_steps(&mut self) {
+        let now_us = embassy_time::Instant::now().as_micros();
+        let Rig {
+            plant,
+            step_timer,
+            dir_high,
+            enabled,
+            inject_dir_high,
+            pulses,
+            ..
+        } = self;
+        step_timer.advance(now_us, |_| {
+            if *enabled {
+                let direction = if *dir_high == *inject_dir_high {
+                    Direction::Inject
+                } else {
+                    Direction::Withdraw
+                };
+                if plant.pulse(direction) {
+                    *pulses += 1;
+                }
+            }
+        });
+    }
+}
+
 /// The rig behind a lock (the board thread and the plant thread share it).
 pub type SharedRig = Arc<Mutex<Rig>>;
 
@@ -68,7 +99,7 @@ pub fn lock(rig: &SharedRig) -> MutexGuard<'_, Rig> {
 /// Which output pin.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PinRole {
-    /// STEP: a rising edge with the driver on moves one microstep.
+    /// STEP, as the safe state drives it: low stops its timer.
     Step,
     /// DIR.
     Dir,
@@ -96,18 +127,13 @@ impl PumpPin {
     fn set(&mut self, high: bool) {
         let mut r = lock(&self.rig);
         match self.role {
+            // Only the safe state drives STEP as a pin: it stops the timer
+            // (the board's `drive_outputs_safe` does the same), after the
+            // edges it already made.
             PinRole::Step => {
-                let rising = high && !r.step_high;
-                r.step_high = high;
-                if rising && r.enabled {
-                    let direction = if r.dir_high == r.inject_dir_high {
-                        Direction::Inject
-                    } else {
-                        Direction::Withdraw
-                    };
-                    if r.plant.pulse(direction) {
-                        r.pulses += 1;
-                    }
+                if !high {
+                    r.sync_steps();
+                    r.step_timer.stop();
                 }
             }
             PinRole::Dir => r.dir_high = high,
@@ -131,6 +157,65 @@ impl OutputPin for PumpPin {
     fn set_high(&mut self) -> Result<(), Infallible> {
         self.set(true);
         Ok(())
+    }
+}
+
+/// STEP's timer, as the pump task drives it: the rig's [`SimStepTimer`]
+/// on the board's clock, its edges delivered to the plant.
+pub struct StepTimerPin {
+    rig: SharedRig,
+}
+
+impl StepTimerPin {
+    /// The step timer of `rig`.
+    pub fn new(rig: SharedRig) -> Self {
+        Self { rig }
+    }
+
+    /// The rig with the timer brought up to now.
+    fn synced(&self) -> MutexGuard<'_, Rig> {
+        let mut r = lock(&self.rig);
+        r.sync_steps();
+        r
+    }
+}
+
+impl StepPulses for StepTimerPin {
+    fn start(&mut self, first_us: u32, second_us: u32) {
+        self.synced().step_timer.start(first_us, second_us);
+    }
+
+    fn queue_period(&mut self, period_us: u32) {
+        self.synced().step_timer.queue_period(period_us);
+    }
+
+    fn finish(&mut self) {
+        self.synced().step_timer.finish();
+    }
+
+    fn stop(&mut self) {
+        self.synced().step_timer.stop();
+    }
+
+    fn pulses(&self) -> u32 {
+        self.synced().step_timer.pulses()
+    }
+
+    fn running(&self) -> bool {
+        self.synced().step_timer.running()
+    }
+
+    async fn wait_pulse(&mut self, seen: u32) {
+        loop {
+            let at_us = {
+                let r = self.synced();
+                match r.step_timer.next_completion_us() {
+                    Some(at) if r.step_timer.pulses() == seen => at,
+                    _ => return,
+                }
+            };
+            Timer::at(embassy_time::Instant::from_micros(at_us)).await;
+        }
     }
 }
 
@@ -508,5 +593,40 @@ impl embedded_io_async::Write for PtyTx {
 
     async fn flush(&mut self) -> Result<(), Infallible> {
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use emulator::PlantConfig;
+
+    #[test]
+    fn the_safe_state_stops_the_step_timer() {
+        let plant = Plant::new(&PlantConfig::paper(), 40.0, 1).expect("paper plant");
+        let rig = Arc::new(Mutex::new(Rig {
+            plant,
+            atmosphere_kpa: 101.325,
+            noise_kpa: 0.0,
+            step_timer: SimStepTimer::new(),
+            dir_high: true,
+            enabled: true,
+            inject_dir_high: true,
+            valve_open: false,
+            advance_on: true,
+            pulses: 0,
+            watchdog_feeds: 0,
+            bus_recoveries: 0,
+        }));
+        let mut step = StepTimerPin::new(Arc::clone(&rig));
+        // A long first period: the timer is still running at the check.
+        step.start(60_000, 1_000);
+        assert!(step.running());
+        Outputs::new(Arc::clone(&rig)).drive_safe();
+        assert!(!step.running());
+        let r = lock(&rig);
+        assert!(!r.step_timer.step_high());
+        assert!(!r.enabled && r.valve_open && !r.advance_on);
+        assert_eq!(r.pulses, 0);
     }
 }
