@@ -405,6 +405,12 @@ fn cavity_estimate(
         e.far_field.coordination,
         e.theory.rigidity_index()
     );
+    println!(
+        "plastic zone at the end (large strain): radius {:.0} mm; the box's side walls are {:.0} mm from the axis, its floor {:.0} mm",
+        e.plastic_radius_mm,
+        1e3 * (problem.width_m - problem.axis_xz_m[0]),
+        1e3 * problem.axis_xz_m[1]
+    );
     println!("percent  D (mm)  DEM (kPa)  large strain (kPa)  small strain (kPa)");
     for r in &e.rows {
         println!(

@@ -221,3 +221,86 @@ fn cli_fit_skin_fits_one_mode_and_predicts_another() {
         "{stderr}"
     );
 }
+
+#[test]
+fn cli_cavity_estimate_from_a_stored_curve() {
+    let dir = tempfile::tempdir().unwrap();
+    // A bed is read for its far field's packing; G is given here.
+    let bed = dir.path().join("bed.csv");
+    std::fs::write(
+        &bed,
+        "id,x,y,z,radius\n1,0.010,0.005,0.010,0.001\n2,0.0119,0.005,0.010,0.001\n",
+    )
+    .unwrap();
+    let mut pe = String::from("percent,d_mm,pe_kpa\n0,18.7,0.35\n");
+    for p in 1..=100 {
+        let d = 18.7 + 6.3 * f64::from(p) / 100.0;
+        pe += &format!("{p},{d},{}\n", 0.35 + 0.0135 * f64::from(p));
+    }
+    let curve = dir.path().join("pe.csv");
+    std::fs::write(&curve, &pe).unwrap();
+    let out = dir.path().join("out");
+    let stdout = succeeds(
+        host_sim()
+            .args(["cavity", "--bed"])
+            .arg(&bed)
+            .arg("--dem-curve")
+            .arg(&curve)
+            .arg("--out")
+            .arg(&out)
+            .args([
+                "--friction-deg",
+                "22.6",
+                "--dilatancy-deg",
+                "0",
+                "--shear-modulus-kpa",
+                "11.5",
+            ]),
+    );
+    assert!(stdout.contains("G 11.5 kPa (given"), "{stdout}");
+    let table = std::fs::read_to_string(out.join("theory.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = table
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 11);
+    // The last row's large-strain pressure is the library's, for p0 the
+    // curve's at-rest value.
+    let t = cavity::theory::CavityTheory::new(
+        cavity::theory::Soil {
+            friction_deg: 22.6,
+            dilatancy_deg: 0.0,
+            shear_modulus_kpa: 11.5,
+            poisson: 0.3,
+        },
+        0.35,
+    )
+    .unwrap();
+    let a = 25.0 / 18.7;
+    let want = cavity::theory::CavityTheory::pressure_at(&t.large_strain(a * 1.001, 2e-4, 100), a)
+        .unwrap();
+    assert!(
+        (rows[10][3] / want - 1.0).abs() < 1e-5,
+        "{} vs {want}",
+        rows[10][3]
+    );
+    assert!((rows[10][2] - 1.7).abs() < 1e-9);
+    assert!(out.join("theory.svg").exists());
+    // A curve that is not a whole pe.csv is refused by name.
+    std::fs::write(&curve, "percent,d_mm,pe_kpa\n0,18.7,0.35\n").unwrap();
+    let err = fails(
+        host_sim()
+            .args(["cavity", "--bed"])
+            .arg(&bed)
+            .arg("--dem-curve")
+            .arg(&curve)
+            .arg("--out")
+            .arg(&out)
+            .args(["--friction-deg", "22.6", "--dilatancy-deg", "0"]),
+    );
+    assert!(
+        err.contains("pe.csv") && err.contains("percent 0, 1"),
+        "{err}"
+    );
+}

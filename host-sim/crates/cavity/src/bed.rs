@@ -66,13 +66,15 @@ impl Bed {
 
     /// Solid fraction and contacts per sphere of the spheres whose centres
     /// lie in the box `lo`..`hi` (m), the bed periodic along y with period
-    /// `period_y_m`: a contact is a pair closer than the sum of its radii
-    /// (a settled bed's overlaps are its contacts). The solid fraction
-    /// counts those spheres' whole volume over the box's.
+    /// `period_y_m` (centres' y taken modulo the period): a contact is a
+    /// pair closer than the sum of its radii (a settled bed's overlaps are
+    /// its contacts). The solid fraction counts those spheres' whole
+    /// volume over the box's.
     pub fn packing(&self, lo: Vector3<f64>, hi: Vector3<f64>, period_y_m: f64) -> Packing {
         let inside: Vec<usize> = (0..self.len())
             .filter(|&i| {
-                let p = self.position_m[i];
+                let mut p = self.position_m[i];
+                p.y = p.y.rem_euclid(period_y_m);
                 (0..3).all(|k| p[k] >= lo[k] && p[k] < hi[k])
             })
             .collect();
@@ -167,10 +169,12 @@ mod tests {
                 }
             }
         }
-        let lo = Vector3::new(2.5, -0.5, 2.5) * pitch;
-        let hi = Vector3::new(7.5, 9.5, 7.5) * pitch;
+        let lo = Vector3::new(2.5, 0.0, 2.5) * pitch;
+        let hi = Vector3::new(7.5, 10.0, 7.5) * pitch;
         let p = bed.packing(lo, hi, 10.0 * pitch);
         assert_eq!(p.spheres, 250);
+        // Ten layers along y in a box of ten pitches: the lattice's own
+        // solid fraction.
         assert!((p.coordination - 6.0).abs() < 1e-12, "{}", p.coordination);
         let want = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) / pitch.powi(3);
         assert!((p.solid_fraction / want - 1.0).abs() < 1e-9);

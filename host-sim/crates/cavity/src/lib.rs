@@ -139,6 +139,10 @@ pub struct Estimate {
     /// Rows: `[percent, D (mm), DEM p_e, large-strain p, small-strain p]`
     /// (kPa).
     pub rows: Vec<[f64; 5]>,
+    /// Radius of the large-strain plastic zone at the end of the
+    /// expansion (mm): where it passes the box's walls, floor or surface,
+    /// the box is not the theory's infinite medium.
+    pub plastic_radius_mm: f64,
 }
 
 /// The continuum estimate of the problem for the run `dem` in `bed`:
@@ -156,10 +160,10 @@ pub fn write_estimate(
     // short of the cylinder's final radius, 5 mm above the floor to 5 mm
     // below the cylinder's axis (the bed's top is not known here).
     let far_field = bed.packing(
-        nalgebra::Vector3::new(0.004, f64::NEG_INFINITY, 0.005),
+        nalgebra::Vector3::new(0.004, 0.0, 0.005),
         nalgebra::Vector3::new(
             problem.axis_xz_m[0] - problem.radius_m[1] - 0.006,
-            f64::INFINITY,
+            problem.period_m,
             problem.axis_xz_m[1] - 0.005,
         ),
         problem.period_m,
@@ -242,10 +246,17 @@ pub fn write_estimate(
         )?
         .as_bytes(),
     )?;
+    let plastic_radius_mm = large
+        .iter()
+        .find(|p| p.radius_ratio >= a_end)
+        .map_or(f64::NAN, |p| {
+            p.plastic_radius_ratio * 1e3 * problem.radius_m[0]
+        });
     Ok(Estimate {
         theory: t,
         far_field,
         shear_modulus_given: input.shear_modulus_kpa.is_some(),
         rows,
+        plastic_radius_mm,
     })
 }
