@@ -15,7 +15,7 @@ use core::sync::atomic::{AtomicBool, Ordering};
 
 use cortex_m_rt::{exception, ExceptionFrame};
 use embassy_stm32::pac;
-use embassy_stm32::pac::gpio::{vals, Gpio};
+use embassy_stm32::pac::gpio::Gpio;
 use embedded_hal::digital::{ErrorType, OutputPin};
 
 use crate::reset_cause::{PanicKind, ResetRecord};
@@ -24,23 +24,25 @@ use crate::safety::{safe_outputs, SafeOutputsFailed, SafePins};
 /// A GPIO output written through its port's registers.
 struct RawPin {
     port: Gpio,
-    pin: usize,
+    /// Pin number within the port, 0–15.
+    pin: u8,
 }
 
 impl RawPin {
+    /// Raw register values, not the PAC's indexed field setters: those
+    /// bounds-check the pin number, a panic branch this code (run by the
+    /// panic handler) must not have. The pin is masked to 0–15.
     fn set(&mut self, high: bool) {
+        let pin = u32::from(self.pin & 0x0f);
         // Level first, then output mode: an input pin becomes an output
-        // already at the safe level, with no glitch.
-        self.port.bsrr().write(|w| {
-            if high {
-                w.set_bs(self.pin, true)
-            } else {
-                w.set_br(self.pin, true)
-            }
+        // already at the safe level, with no glitch. BSRR: bits 0–15 set,
+        // 16–31 reset.
+        let bit = if high { 1 << pin } else { 1 << (pin + 16) };
+        self.port.bsrr().write_value(pac::gpio::regs::Bsrr(bit));
+        // MODER: two bits a pin, 0b01 = general-purpose output.
+        self.port.moder().modify(|w| {
+            w.0 = (w.0 & !(0b11 << (2 * pin))) | (0b01 << (2 * pin));
         });
-        self.port
-            .moder()
-            .modify(|w| w.set_moder(self.pin, vals::Moder::OUTPUT));
     }
 }
 
