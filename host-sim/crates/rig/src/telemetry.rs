@@ -5,9 +5,13 @@
 //!
 //! Conversion rules:
 //! - one run per continuous recording; a new run starts at a `Hello` (the
-//!   board rebooted), when `t_ms` does not increase, and (without an explicit
+//!   board rebooted), when `t_ms` goes back, and (without an explicit
 //!   depth) at a `Params` reply with a different `depth_mm`. Runs are named
 //!   `ID`, `ID_2`, `ID_3`, …;
+//! - a sample with the same `t_ms` as the one before (the board ran two
+//!   control steps within a millisecond, catching up after a late tick) is
+//!   left out of its run, which stays one, and counted in the notes: rows
+//!   of a run must be strictly later than the one before;
 //! - `t_s` and `volume_ml` count from the run's first sample; `pressure_kpa`
 //!   is the board's gauge reading. Samples before the first pressure reading
 //!   (NaN) are dropped and counted;
@@ -145,6 +149,8 @@ pub fn to_experiment(capture: &Capture, options: &ConvertOptions) -> Result<Conv
     let mut open: Option<OpenRun> = None;
     let mut reported_depth: Option<f64> = None;
     let mut dropped = 0usize;
+    // Samples at the millisecond of the one before them, left out.
+    let mut same_ms = 0usize;
     let mut notes = capture.error_summary();
     if capture.unterminated_bytes > 0 {
         notes.push(format!(
@@ -193,10 +199,12 @@ pub fn to_experiment(capture: &Capture, options: &ConvertOptions) -> Result<Conv
                     continue;
                 }
                 // Wrapping difference: a step later in time is 1..2^31 ms on.
-                let backwards = open.as_ref().is_some_and(|o| {
-                    let dt = t.t_ms.wrapping_sub(o.last_ms);
-                    dt == 0 || dt > u32::MAX / 2
-                });
+                let dt = open.as_ref().map(|o| t.t_ms.wrapping_sub(o.last_ms));
+                if dt == Some(0) {
+                    same_ms += 1;
+                    continue;
+                }
+                let backwards = dt.is_some_and(|dt| dt > u32::MAX / 2);
                 if backwards {
                     notes.push(format!(
                         "t_ms went from {} to {}: new run",
@@ -252,6 +260,12 @@ pub fn to_experiment(capture: &Capture, options: &ConvertOptions) -> Result<Conv
         }
     }
     close(&mut open, &mut runs);
+    if same_ms > 0 {
+        notes.push(format!(
+            "{same_ms} sample(s) with the same t_ms as the sample before left out \
+             (control steps within one millisecond)"
+        ));
+    }
     if dropped > 0 {
         notes.push(format!(
             "{dropped} sample(s) before the first pressure reading dropped"

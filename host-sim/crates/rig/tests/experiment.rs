@@ -687,6 +687,37 @@ fn reboots_and_time_jumps_start_new_runs() {
 }
 
 #[test]
+fn a_sample_at_the_same_millisecond_is_left_out_and_counted() {
+    // Two control steps within one millisecond (a late tick caught up):
+    // the run stays one, the repeat is named in the notes.
+    let msgs = [
+        DeviceMessage::Sample(telemetry(100, 0.0, 0.1, State::Idle)),
+        DeviceMessage::Sample(telemetry(110, 0.5, 0.2, State::Expand)),
+        DeviceMessage::Sample(telemetry(110, 0.6, 0.2, State::Expand)),
+        DeviceMessage::Sample(telemetry(120, 1.0, 0.3, State::Expand)),
+    ];
+    let capture = decode_capture(&encode_capture(&msgs).unwrap());
+    let options = ConvertOptions {
+        run_id: "r".into(),
+        depth_mm: Some(0.0),
+        rig: Rig::paper_default(),
+    };
+    let conversion = to_experiment(&capture, &options).unwrap();
+    let runs = &conversion.experiment.runs;
+    assert_eq!(runs.len(), 1);
+    let t: Vec<f64> = runs[0].samples.iter().map(|s| s.t_s).collect();
+    assert_eq!(t, [0.0, 0.01, 0.02]);
+    assert!(
+        conversion
+            .notes
+            .iter()
+            .any(|n| n.starts_with("1 sample(s) with the same t_ms")),
+        "{:?}",
+        conversion.notes
+    );
+}
+
+#[test]
 fn depth_changes_split_runs_and_missing_depth_is_an_error() {
     let msgs = [
         params_at(0.0),
