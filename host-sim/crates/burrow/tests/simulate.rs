@@ -330,7 +330,7 @@ fn a_rig_sets_the_actuator_the_sand_the_fluid_and_the_box() {
     assert_eq!(spec.tube.wall_thickness_mm, 2.2);
     // Measured skin: used as given, no calibration scale.
     assert_eq!(spec.skin_stiffness_scale, 1.0);
-    assert_eq!(spec.skin_law().c20_kpa, 0.5);
+    assert_eq!(spec.skin_law().unwrap().yeoh().unwrap().c20_kpa, 0.5);
     assert!((spec.final_diameter_m - 30e-3 * 25.0 / 18.7).abs() < 1e-15);
     // A wide tank: 3 final diameters, frictionless sides.
     assert!((spec.box_width_m - 3.0 * spec.final_diameter_m).abs() < 1e-15);
@@ -651,7 +651,7 @@ fn the_bed_settles_soft_and_is_stiffened_for_the_advance_and_expansion() {
             poisson_ratio: 0.3,
             density_kg_m3: spec.grain_density_kg_m3,
         };
-        let skin = sand.effective_modulus_pa(&skin_material(&spec.skin_law()));
+        let skin = sand.effective_modulus_pa(&skin_material(&spec.skin_law().unwrap()));
         assert!((e_star(&bed.coupling.model) / skin - 1.0).abs() < 1e-12);
         assert_eq!(
             (bed.params.dt_s, bed.coupling.dt_s, face.dt_s),
