@@ -30,7 +30,8 @@ pub struct MembraneCurve {
 
 impl MembraneCurve {
     /// Samples the closed-end tube of `skin` with rest geometry `geometry`
-    /// from 0.7·D0 to 2.6·D0 (or as far as the tube can be solved).
+    /// from 0.7·D0 to 2.6·D0 (or over the part of it where the tube can be
+    /// solved, which must include D0).
     pub fn sample<S: StrainEnergy>(geometry: TubeGeometry, skin: S) -> Result<Self> {
         let tube = Tube::new(geometry, skin, Ends::Closed)?;
         let d0 = geometry.outer_diameter_mm;
@@ -38,14 +39,21 @@ impl MembraneCurve {
         let ro = geometry.outer_radius_mm();
         let ri = geometry.inner_radius_mm();
         let closes_mm = 2.0 * (ro * ro - ri * ri).sqrt();
-        let first = (0.7 * d0).max(closes_mm + 0.5).min(d0 - SPACING_MM);
+        let start = (0.7 * d0).max(closes_mm + 0.5).min(d0 - SPACING_MM);
+        let mut first = start;
         let last = 2.6 * d0;
-        let n = ((last - first) / SPACING_MM).ceil() as usize + 1;
+        let n = ((last - start) / SPACING_MM).ceil() as usize + 1;
         let mut pressure = Vec::with_capacity(n);
         for i in 0..n {
-            let d = first + SPACING_MM * i as f64;
+            let d = start + SPACING_MM * i as f64;
             match tube.pressure_kpa(d) {
                 Ok(p) if p.is_finite() => pressure.push(p),
+                // A law that locks (Gent with a small Jm) has no squeezed
+                // tube that far below D0: the curve starts later and is
+                // extended linearly below.
+                _ if pressure.is_empty() && d < d0 - SPACING_MM => {
+                    first = start + SPACING_MM * (i + 1) as f64;
+                }
                 // The tube stops having a solution: the curve ends here
                 // and is extended linearly.
                 _ if d > d0 + 1.0 => break,
