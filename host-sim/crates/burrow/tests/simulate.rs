@@ -770,3 +770,59 @@ fn a_solid_skin_recoils_less_than_the_membrane_and_touches_the_sand_with_its_out
     assert!(last.outer_diameter_m > 24e-3, "{}", last.outer_diameter_m);
     assert!(last.max_von_mises_pa > 0.0 && last.max_bending_strain.is_none());
 }
+
+/// `--skin-fit`: a Gent law from fit-skin's report replaces the paper's
+/// calibrated default skin (scale 1, a note saying so) and a rig's Yeoh
+/// `[skin]` (a warning naming both); the FEM skin is built of it, and the
+/// case's key (its `Debug`) names the law.
+#[test]
+fn a_skin_fit_replaces_the_papers_skin_and_a_rigs() {
+    use burrow::settings::SimulateSettings;
+    use skin::{SkinFitChoice, StrainEnergy};
+    let dir = tempfile::tempdir().unwrap();
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/skin/unicinctus_circumferential.csv");
+    let fit = skin::report::fit_skin(&data, dir.path()).unwrap();
+    let choice = SkinFitChoice {
+        file: fit.json_path.clone(),
+        law: Some("Gent".into()),
+    };
+    let gent = fit.report.fit("Gent").unwrap().parameters.clone();
+    let settings = SimulateSettings {
+        depth_mm: 40.0,
+        seeds: 1,
+        skin_fit: Some(choice.clone()),
+        out: dir.path().join("out"),
+        ..SimulateSettings::default()
+    };
+    let plan = settings.plan().unwrap();
+    let law = plan.spec.skin_law().unwrap();
+    assert_eq!((law.name(), law.parameters()), ("Gent", gent.clone()));
+    assert_eq!(plan.spec.skin_stiffness_scale, 1.0);
+    assert!(
+        plan.notes.iter().any(|n| n.contains("the Gent coupon fit")),
+        "{:?}",
+        plan.notes
+    );
+    assert!(format!("{:?}", plan.spec).contains("skin_coefficients: Some(Gent { mu_kpa: "));
+    let skin = plan.spec.skin(Ends::Clamped).unwrap();
+    assert_eq!(skin.law.name(), "Gent");
+
+    // A rig with a [skin]: replaced, and the warning names both laws.
+    let rig_file = dir.path().join("rig.toml");
+    std::fs::write(&rig_file, Rig::paper_default().to_toml().unwrap()).unwrap();
+    let plan = SimulateSettings {
+        rig: Some(rig_file),
+        ..settings
+    }
+    .plan()
+    .unwrap();
+    assert_eq!(plan.spec.skin_law().unwrap().parameters(), gent);
+    assert!(
+        plan.warnings
+            .iter()
+            .any(|w| w.contains("[skin] (Yeoh c10_kpa = 2") && w.contains("Gent mu_kpa")),
+        "{:?}",
+        plan.warnings
+    );
+}

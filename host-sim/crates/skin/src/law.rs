@@ -17,6 +17,7 @@ use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
 
 use super::{LawSpec, StrainEnergy, Yeoh};
+use fem::LawVisitor;
 
 /// A registered law with its coefficients.
 #[derive(Clone, Serialize, Deserialize)]
@@ -193,12 +194,24 @@ macro_rules! forward {
     };
 }
 
+// The FEM's element loops do not come through these per quadrature point:
+// `visit` hands them the held law's own type (a Yeoh skin runs the loop
+// compiled for Yeoh).
 impl StrainEnergy for SkinLaw {
     fn name(&self) -> &'static str {
         self.spec.name
     }
     fn parameters(&self) -> Vec<f64> {
         self.law().parameters()
+    }
+    fn visit<V: LawVisitor>(&self, v: V) -> V::Output
+    where
+        Self: Sized,
+    {
+        match &self.inner {
+            Inner::Yeoh(y) => v.visit(y),
+            Inner::Any(a) => v.visit(a.as_ref()),
+        }
     }
     #[inline]
     fn energy_kpa(&self, i1: f64, i2: f64) -> f64 {
