@@ -617,6 +617,11 @@ fn issue_29_an_ogden_fit_never_returns_a_term_with_negative_mu_alpha() {
     assert!(free.x[2] * free.x[3] < 0.0, "{:?}", free.x);
     // The fit does not return it: every term keeps μp·αp ≥ 0, at a cost.
     let fit = fit_law(spec, &tests).unwrap();
+    println!(
+        "constrained Ogden-2 {:?}, RMSE per mode {:?} kPa",
+        fit.parameters,
+        fit.modes.iter().map(|m| m.rmse_kpa).collect::<Vec<_>>()
+    );
     for t in fit.parameters.chunks_exact(2) {
         assert!(t[0] * t[1] >= 0.0, "{:?}", fit.parameters);
     }
