@@ -212,3 +212,85 @@ pub fn parse_fit_modes(names: &[String]) -> Result<Vec<Mode>> {
 pub fn parse_inflation_law(name: &str) -> Result<&'static LawSpec> {
     LawSpec::named(name, "--inflation-law")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::StrainEnergy;
+
+    /// A report as fit-skin writes it, cut to what is read: a stable Gent
+    /// fit, a Mooney–Rivlin fit unstable at rest, and, when asked for, an
+    /// inflation fit of Yeoh.
+    fn report(dir: &std::path::Path, inflation: bool) -> PathBuf {
+        let fits = r#""fits": [
+            {"law": "Gent", "parameters": [8.0, 23.0], "modes": [{"mode": "uniaxial", "fitted": true, "r_squared": 0.96}],
+             "stability": {"stable_over_data": true}},
+            {"law": "Mooney-Rivlin", "parameters": [23.4, -47.0], "modes": [{"mode": "uniaxial", "fitted": true, "r_squared": 0.81}],
+             "stability": {"stable_over_data": false}}
+        ]"#;
+        let infl = if inflation {
+            r#", "inflation": {"folder": "exp", "fit": {"law": "Yeoh", "parameters": [2.0, 0.0, 0.02]}}"#
+        } else {
+            ""
+        };
+        let path = dir.join(if inflation {
+            "with.json"
+        } else {
+            "without.json"
+        });
+        std::fs::write(&path, format!("{{{fits}{infl}}}")).unwrap();
+        path
+    }
+
+    fn choose(file: &std::path::Path, law: Option<&str>) -> Result<ChosenLaw> {
+        SkinFitChoice {
+            file: file.to_path_buf(),
+            law: law.map(str::to_owned),
+        }
+        .read()
+    }
+
+    #[test]
+    fn the_inflation_fit_is_the_default_and_a_name_picks_a_coupon_fit() {
+        let dir = tempfile::tempdir().unwrap();
+        let with = report(dir.path(), true);
+        let c = choose(&with, None).unwrap();
+        assert_eq!(c.law.name(), "Yeoh");
+        assert!(c.source.contains("inflation fit (to exp)"), "{}", c.source);
+        let c = choose(&with, Some("Gent")).unwrap();
+        assert_eq!(c.law.parameters(), vec![8.0, 23.0]);
+        assert!(c.source.contains("Gent coupon fit (uniaxial)"));
+        assert!(c.warnings.is_empty());
+    }
+
+    #[test]
+    fn a_missing_name_a_missing_law_and_an_unstable_one_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let without = report(dir.path(), false);
+        let e = format!("{:#}", choose(&without, None).unwrap_err());
+        assert!(
+            e.contains("say which law with --skin-law")
+                && e.contains("Gent (uniaxial R² 0.9600)")
+                && e.contains("without.json"),
+            "{e}"
+        );
+        let e = format!("{:#}", choose(&without, Some(INFLATION)).unwrap_err());
+        assert!(e.contains("the report has no inflation fit"), "{e}");
+        let e = format!("{:#}", choose(&without, Some("Ogden-3")).unwrap_err());
+        assert!(
+            e.contains("--skin-law Ogden-3: the report has no fit of that law"),
+            "{e}"
+        );
+        // μ = 2(C10 + C01) < 0: no tube.
+        let e = format!("{:#}", choose(&without, Some("Mooney-Rivlin")).unwrap_err());
+        assert!(e.contains("unstable") && e.contains("no skin tube"), "{e}");
+        // Not a report: the file, line and column.
+        let bad = dir.path().join("bad.json");
+        std::fs::write(&bad, "{\n \"fits\": 3\n}").unwrap();
+        let e = format!("{:#}", choose(&bad, Some("Gent")).unwrap_err());
+        assert!(
+            e.contains("bad.json: not a fit-skin JSON report") && e.contains("line 2"),
+            "{e}"
+        );
+    }
+}
