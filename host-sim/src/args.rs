@@ -100,6 +100,9 @@ pub enum Command {
     Compare {
         /// Experiment folder (shared/data-format.md).
         exp: PathBuf,
+        /// The skin: a law from fit-skin's report instead of rig.toml's [skin].
+        #[command(flatten)]
+        skin: SkinFitArgs,
     },
     /// Find the missing physical effect: rank every library effect by
     /// ΔBIC and held-out error, select greedily, report parameters with
@@ -114,6 +117,9 @@ pub enum Command {
         /// Add this effect to the folder's model, refit, record in the ledger.
         #[arg(long)]
         add: Option<String>,
+        /// The skin: a law from fit-skin's report instead of rig.toml's [skin].
+        #[command(flatten)]
+        skin: SkinFitArgs,
     },
     /// Print the folder's model ledger and plot the error per version
     /// (EXP/workbench/ledger.svg).
@@ -247,6 +253,10 @@ pub struct TablesArgs {
     /// under --repo.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// The skin: a law from fit-skin's report instead of the default skin
+    /// (or the rig's [skin]).
+    #[command(flatten)]
+    skin: SkinFitArgs,
     /// Also write the table as a binary image for `host-sim board
     /// push-table` (the board stores it in flash and uses it from its next
     /// boot).
@@ -261,6 +271,7 @@ impl TablesArgs {
             repo: self.repo,
             check: self.check,
             rig: self.rig.zip(self.solver_sand),
+            skin_fit: self.skin.choice(),
             out: self.out,
             image: self.image,
         }
@@ -361,6 +372,10 @@ pub struct SimulateArgs {
     /// Shorter settling and expansion (about half the steps).
     #[arg(long)]
     quick: bool,
+    /// The skin: a law from fit-skin's report instead of the rig's [skin]
+    /// or the paper's calibrated default skin, used as measured.
+    #[command(flatten)]
+    skin: SkinFitArgs,
     /// Calibration knobs: the case's defaults unless given.
     #[command(flatten)]
     knobs: CalibrationArgs,
@@ -473,6 +488,7 @@ impl SimulateArgs {
             seed: self.seed,
             seeds: self.seeds,
             quick: self.quick,
+            skin_fit: self.skin.choice(),
             out,
         }
     }
@@ -508,6 +524,10 @@ pub struct BalloonArgs {
     /// paper's stretch 25/18.7 of the rig's initial diameter.
     #[arg(long = "final-diameter-mm", requires = "rig")]
     pub final_diameter_mm: Option<f64>,
+    /// With --rig: the skin, a law from fit-skin's report instead of the
+    /// rig's [skin] (the balloon's free pressure then scales it).
+    #[command(flatten)]
+    pub skin: SkinFitArgs,
     /// Folder for the results.
     #[arg(long, default_value = "out/balloon")]
     pub out: PathBuf,
@@ -602,6 +622,10 @@ pub struct SolverSandArgs {
     /// paper's stretch 25/18.7 of the rig's initial diameter.
     #[arg(long = "final-diameter-mm", requires = "rig")]
     pub final_diameter_mm: Option<f64>,
+    /// With --rig: the skin, a law from fit-skin's report instead of the
+    /// rig's [skin].
+    #[command(flatten)]
+    pub skin: SkinFitArgs,
     /// Beds per depth (seeds 1, 2, …), their samples pooled in the bins.
     #[arg(long, default_value_t = DEFAULT_SEEDS, value_parser = clap::value_parser!(u64).range(1..=1000))]
     pub seeds: u64,
@@ -650,6 +674,33 @@ pub enum BenchCommand {
         #[arg(long, value_delimiter = ',', default_values_t = [1usize, 2])]
         workers: Vec<usize>,
     },
+}
+
+/// `--skin-fit FILE [--skin-law NAME]`, shared by every command that
+/// takes a skin.
+#[derive(Args, Clone, Debug, Default)]
+#[command(next_help_heading = "Skin")]
+pub struct SkinFitArgs {
+    /// fit-skin's JSON report: the skin is a law fitted there (any law:
+    /// Gent, Ogden, …) instead of rig.toml's Yeoh [skin] or the default
+    /// skin.
+    #[arg(long = "skin-fit", value_name = "FILE")]
+    pub skin_fit: Option<PathBuf>,
+    /// Which law of --skin-fit: a name as fit-skin prints it, or
+    /// `inflation` (the free-inflation fit); default: the inflation fit,
+    /// which the report must then hold (host-sim/crates/skin/README.md).
+    #[arg(long = "skin-law", value_name = "NAME", requires = "skin_fit")]
+    pub skin_law: Option<String>,
+}
+
+impl SkinFitArgs {
+    /// The choice, when --skin-fit is given.
+    pub fn choice(self) -> Option<skin::SkinFitChoice> {
+        self.skin_fit.map(|file| skin::SkinFitChoice {
+            file,
+            law: self.skin_law,
+        })
+    }
 }
 
 /// `fit-skin`'s arguments.

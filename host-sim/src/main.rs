@@ -92,11 +92,20 @@ fn run(cli: Cli, argv: Vec<String>) -> Result<()> {
         }
         Command::Emulate(a) => emulate(a),
         Command::Telemetry(a) => telemetry(a),
-        Command::Compare { exp } => {
-            print!("{}", workbench::commands::compare(&exp)?.text());
+        Command::Compare { exp, skin } => {
+            let choice = skin.choice();
+            print!(
+                "{}",
+                workbench::commands::compare_with(&exp, choice.as_ref())?.text()
+            );
             Ok(())
         }
-        Command::Diagnose { exp, json, add } => diagnose(&exp, json, add.as_deref()),
+        Command::Diagnose {
+            exp,
+            json,
+            add,
+            skin,
+        } => diagnose(&exp, json, add.as_deref(), skin.choice()),
         Command::Board(a) => board::board(a),
         Command::VirtualBoard(a) => board::virtual_board(a),
         Command::Ledger { exp } => {
@@ -148,31 +157,12 @@ fn tables(settings: tables::TablesSettings) -> Result<()> {
 }
 
 fn fit_skin(a: &args::FitSkinArgs) -> Result<()> {
-    use skin::coupon::Mode;
     let fit_modes = a
         .fit_modes
-        .as_ref()
-        .map(|names| {
-            names
-                .iter()
-                .map(|n| {
-                    Mode::parse(n).ok_or_else(|| {
-                        anyhow::anyhow!(
-                            "--fit-modes: `{n}` is not a test mode (uniaxial, equibiaxial or planar)"
-                        )
-                    })
-                })
-                .collect::<Result<Vec<_>>>()
-        })
+        .as_deref()
+        .map(skin::choice::parse_fit_modes)
         .transpose()?;
-    let spec = skin::LawSpec::by_name(&a.inflation_law).ok_or_else(|| {
-        let names: Vec<&str> = skin::LAWS.iter().map(|l| l.name).collect();
-        anyhow::anyhow!(
-            "--inflation-law: no law `{}` (laws: {})",
-            a.inflation_law,
-            names.join(", ")
-        )
-    })?;
+    let spec = skin::choice::parse_inflation_law(&a.inflation_law)?;
     let tests = skin::report::read_tests(&a.files)?;
     let mut report = skin::report::FitSkinReport::from_tests(&tests, fit_modes.as_deref())?;
     if let Some(dir) = &a.inflation {
@@ -274,7 +264,11 @@ fn merge(out: &std::path::Path, parts: &[PathBuf]) -> Result<()> {
 
 fn balloon(a: args::BalloonArgs, part: Part, argv: Vec<String>) -> Result<()> {
     use burrow::balloon::{run_part, BalloonOptions};
-    let (rig, warnings) = burrow::settings::rig_setup(a.rig.as_deref(), a.final_diameter_mm)?;
+    let (rig, warnings) = burrow::settings::rig_setup(
+        a.rig.as_deref(),
+        a.final_diameter_mm,
+        a.skin.clone().choice().as_ref(),
+    )?;
     warn(&warnings);
     let opts = BalloonOptions {
         depths_m: a.depths_mm.iter().map(|h| h * 1e-3).collect(),
@@ -427,7 +421,11 @@ fn solver_sand(a: args::SolverSandArgs, part: Part, argv: Vec<String>) -> Result
     let out = a
         .out
         .unwrap_or_else(|| default_repo_root().join(sand::solver::DATA_PATH));
-    let (rig, warnings) = burrow::settings::rig_setup(a.rig.as_deref(), a.final_diameter_mm)?;
+    let (rig, warnings) = burrow::settings::rig_setup(
+        a.rig.as_deref(),
+        a.final_diameter_mm,
+        a.skin.clone().choice().as_ref(),
+    )?;
     warn(&warnings);
     let seeds = a.seeds;
     let opts = RegenerateOptions {
@@ -509,9 +507,20 @@ fn telemetry(a: args::TelemetryArgs) -> Result<()> {
     Ok(())
 }
 
-fn diagnose(exp: &std::path::Path, json: bool, add: Option<&str>) -> Result<()> {
-    use workbench::commands::{diagnose_folder, DiagnoseOutcome};
-    let outcome = diagnose_folder(exp, add, &workbench::diagnose::DiagnoseOptions::default())?;
+fn diagnose(
+    exp: &std::path::Path,
+    json: bool,
+    add: Option<&str>,
+    skin: Option<skin::SkinFitChoice>,
+) -> Result<()> {
+    use workbench::commands::{diagnose_folder_with, DiagnoseOutcome};
+    let (outcome, warnings) = diagnose_folder_with(
+        exp,
+        add,
+        skin.as_ref(),
+        &workbench::diagnose::DiagnoseOptions::default(),
+    )?;
+    warn(&warnings);
     match (&outcome, json) {
         (DiagnoseOutcome::Diagnosis(d), true) => println!("{}", serde_json::to_string_pretty(d)?),
         _ => print!("{}", outcome.text()),

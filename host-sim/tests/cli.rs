@@ -304,3 +304,90 @@ fn cli_cavity_estimate_from_a_stored_curve() {
         "{err}"
     );
 }
+
+/// `--skin-fit`: fit-skin's Gent fit of the shipped skin data drives
+/// `tables`, the report's laws are listed when the name is missing, and
+/// `compare` reads a folder with it, warning that it replaces [skin].
+#[test]
+fn cli_a_gent_fit_from_fit_skin_drives_tables_and_compare() {
+    let dir = tempfile::tempdir().unwrap();
+    let data =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data/skin/unicinctus_circumferential.csv");
+    succeeds(
+        host_sim()
+            .arg("fit-skin")
+            .arg(&data)
+            .arg("--out")
+            .arg(dir.path()),
+    );
+    let fit = dir.path().join("unicinctus_circumferential-fit.json");
+    let table = dir.path().join("gent.rs");
+    let stdout = succeeds(
+        host_sim()
+            .arg("tables")
+            .arg("--skin-fit")
+            .arg(&fit)
+            .args(["--skin-law", "Gent", "--out"])
+            .arg(&table),
+    );
+    assert!(stdout.contains("Written"), "{stdout}");
+    let text = std::fs::read_to_string(&table).unwrap();
+    assert!(
+        text.contains("Gent mu_kpa = ") && text.contains("--skin-law Gent"),
+        "{}",
+        &text[..600]
+    );
+    // The default table differs: the skin is in it.
+    let default = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../src/table/generated.rs"),
+    )
+    .unwrap();
+    assert_ne!(text, default);
+
+    // No --skin-law and no inflation fit in the report: the laws listed.
+    let stderr = fails(
+        host_sim()
+            .arg("tables")
+            .arg("--skin-fit")
+            .arg(&fit)
+            .arg("--out")
+            .arg(&table),
+    );
+    assert!(
+        stderr.contains("say which law with --skin-law")
+            && stderr.contains("Gent (uniaxial R² 0.96"),
+        "{stderr}"
+    );
+    let stderr = fails(
+        host_sim()
+            .arg("tables")
+            .arg("--skin-fit")
+            .arg(&fit)
+            .args(["--skin-law", "Arruda-Boyce"]),
+    );
+    assert!(
+        stderr.contains("--skin-law Arruda-Boyce: the report has no fit of that law"),
+        "{stderr}"
+    );
+
+    // compare with the Gent law on a synthetic folder whose rig.toml has a [skin].
+    let exp = dir.path().join("exp");
+    std::fs::create_dir_all(&exp).unwrap();
+    workbench::synth::case(Vec::new(), 0.1, 5)
+        .generate()
+        .unwrap()
+        .write(&exp)
+        .unwrap();
+    let stdout = succeeds(
+        host_sim()
+            .arg("compare")
+            .arg(&exp)
+            .arg("--skin-fit")
+            .arg(&fit)
+            .args(["--skin-law", "Gent"]),
+    );
+    assert!(
+        stdout.starts_with("warning: ") && stdout.contains("[skin] (Yeoh c10_kpa = 2, c20_kpa = 0, c30_kpa = 0.016) is replaced by the Gent coupon fit (uniaxial)"),
+        "{stdout}"
+    );
+}

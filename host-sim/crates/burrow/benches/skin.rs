@@ -8,7 +8,7 @@ use burrow::ScenarioSpec;
 use criterion::{criterion_group, criterion_main, Criterion};
 use fem::Ends;
 
-fn inflated(layers: usize) -> fem::Skin<skin::Yeoh> {
+fn inflated(layers: usize) -> fem::Skin<skin::SkinLaw> {
     let spec = ScenarioSpec::paper(0.04, 1.5e-3);
     // The scenario's skin is the solid: the membrane has to be asked for.
     let spec = if let Some(layers) = std::num::NonZeroUsize::new(layers) {

@@ -90,8 +90,8 @@ impl FreeCurve {
     /// ([`ScenarioSpec::skin_stiffness_scale`]) set so that the zone with
     /// no sand needs `free_pressure_pa` (Pa) at its final diameter, and
     /// that skin's curve. This is how a balloon's measured pressure at
-    /// h = 0 (at the injected volume) sets its skin: every coefficient of
-    /// the Yeoh law is scaled, so at a given shape every stress and p_free
+    /// h = 0 (at the injected volume) sets its skin: W is scaled (every
+    /// modulus of the law), so at a given shape every stress and p_free
     /// scale with it, and one rescale from the first curve lands within
     /// [`MATCH_TOLERANCE`] (a second one is taken if it does not).
     pub fn matched(

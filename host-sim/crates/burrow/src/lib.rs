@@ -290,9 +290,14 @@ impl Report {
             ))
         });
         if let Some((d, p)) = p_free {
+            // A Yeoh skin keeps the line it has always had.
+            let whose = match &self.spec.skin_coefficients {
+                Some(law) if law.yeoh().is_none() => law.describe(),
+                _ => "the project's default skin, or the rig's".to_owned(),
+            };
             let _ = writeln!(
                 s,
-                "the skin alone (no sand) needs {:.3} kPa at D = {:.2} mm (its law's coefficients × {:.2}: the project's default skin, or the rig's)",
+                "the skin alone (no sand) needs {:.3} kPa at D = {:.2} mm (its law's coefficients × {:.2}: {whose})",
                 p * 1e-3,
                 d * 1e3,
                 self.spec.skin_stiffness_scale

@@ -35,7 +35,7 @@ use fem::{Ends, FemError, Skin, SkinKind, SkinSpec, VolumeControl};
 use rig::Rig;
 use sand::{BalloonPoint, BALLOON_FINAL_DIAMETER_MM, BALLOON_TABLE};
 use skin::membrane::TubeGeometry;
-use skin::{default_skin, StrainEnergy, Yeoh};
+use skin::{default_skin, SkinLaw, StrainEnergy};
 
 /// Most hexahedra through a solid skin's wall ([`ScenarioSpec::with_solid`]):
 /// at 8 each is 0.22 mm thick and the skin's step falls well below the
@@ -256,9 +256,11 @@ pub struct ScenarioSpec {
     pub deposition_friction: f64,
     /// The skin tube at rest (outer diameter D0, thickness, zone length).
     pub tube: TubeGeometry,
-    /// Measured Yeoh coefficients of the skin; `None`: the project's
-    /// default skin (see [`ScenarioSpec::skin_law`]).
-    pub skin_coefficients: Option<Yeoh>,
+    /// The skin's measured law (rig.toml's Yeoh `[skin]`, or any law
+    /// from `--skin-fit`); `None`: the project's default skin (see
+    /// [`ScenarioSpec::skin_law`]). Its `Debug` is the law's own, so a
+    /// Yeoh law keys a case record as it always has.
+    pub skin_coefficients: Option<SkinLaw>,
     /// Grain material density ρ_s (kg/m³).
     pub grain_density_kg_m3: f64,
     /// Density of the water in the pores ρ_w (kg/m³): buoyancy.
@@ -353,8 +355,8 @@ impl ScenarioSpec {
 
     /// This case with the set-up of `rig` (read from `rig_file`, named in
     /// errors) instead of the paper's: the actuator's tube; its skin's
-    /// Yeoh coefficients when `[skin]` gives them (used as measured, with
-    /// no stiffness scale), else the default skin with the paper's
+    /// law when known ([`Rig::skin_known`]: `[skin]` or `--skin-fit`; used
+    /// as measured, with no stiffness scale), else the default skin with the paper's
     /// calibrated scale; the grains' density and friction (`[sand]`,
     /// required); the pore water's density; the box width (`[container]`;
     /// absent: a wide tank, [`WIDE_TANK_DIAMETERS`] final diameters with
@@ -387,7 +389,7 @@ impl ScenarioSpec {
             a.initial_diameter_mm,
             final_diameter_m * 1e3
         );
-        let skin_coefficients = rig.skin.as_ref().map(|k| k.yeoh());
+        let skin_coefficients = rig.skin_known().then(|| rig.skin_law());
         let (box_width_m, wall_friction) = match rig.container.as_ref().and_then(|c| c.width_mm) {
             Some(width_mm) => (width_mm * 1e-3, sand.friction),
             // No box, or a tank with no width given: a wide tank.
@@ -407,11 +409,17 @@ impl ScenarioSpec {
             "{rig_file}: [fluid] water_above_sand_mm = {} mm: hydrostatic, it changes no effective stress",
             rig.fluid.water_above_sand_mm
         ));
-        if skin_coefficients.is_none() {
-            notes.push(format!(
+        match (&rig.skin_fit, &skin_coefficients) {
+            (_, None) => notes.push(format!(
                 "{rig_file}: no [skin]: the default skin × {} (the stiffness calibrated on the paper's case)",
                 self.skin_stiffness_scale
-            ));
+            )),
+            (Some(fit), Some(law)) => notes.push(format!(
+                "the skin is {}, {}, used as measured (scale 1)",
+                fit.source,
+                law.describe()
+            )),
+            (None, Some(_)) => {}
         }
         notes.push(match &rig.container {
             None => format!(
@@ -545,16 +553,29 @@ impl ScenarioSpec {
         }
     }
 
-    /// The skin's law: the measured coefficients, else the project's
-    /// default Yeoh skin, with every coefficient times
-    /// [`ScenarioSpec::skin_stiffness_scale`].
-    pub fn skin_law(&self) -> Yeoh {
-        let d = self.skin_coefficients.unwrap_or_else(default_skin);
+    /// The skin's law: the measured law, else the project's default Yeoh
+    /// skin, with W times [`ScenarioSpec::skin_stiffness_scale`] (every
+    /// modulus scaled, [`SkinLaw::scaled`]); an error for a scale that
+    /// leaves the law's domain.
+    pub fn skin_law(&self) -> Result<SkinLaw, FemError> {
         let k = self.skin_stiffness_scale;
-        Yeoh {
-            c10_kpa: k * d.c10_kpa,
-            c20_kpa: k * d.c20_kpa,
-            c30_kpa: k * d.c30_kpa,
+        self.skin_coefficients
+            .clone()
+            .unwrap_or_else(|| default_skin().into())
+            .scaled(k)
+            .ok_or(FemError::Param {
+                name: "skin_stiffness_scale",
+                value: k,
+            })
+    }
+
+    /// This case with the skin `law` (a law from `--skin-fit`), used as
+    /// measured: the stiffness scale is 1.
+    pub fn with_skin_law(self, law: SkinLaw) -> ScenarioSpec {
+        ScenarioSpec {
+            skin_coefficients: Some(law),
+            skin_stiffness_scale: 1.0,
+            ..self
         }
     }
 
@@ -603,14 +624,14 @@ impl ScenarioSpec {
     /// The zone's skin of this case ([`ScenarioSpec::skin_law`] on
     /// [`ScenarioSpec::tube`], [`ScenarioSpec::skin_mesh`]) held by `ends`,
     /// at rest.
-    pub fn skin(&self, ends: Ends) -> Result<Skin<Yeoh>, FemError> {
+    pub fn skin(&self, ends: Ends) -> Result<Skin<SkinLaw>, FemError> {
         let (around, along) = self.skin_mesh;
         let spec = SkinSpec {
             end_row_m: self.skin_end_row_m,
             kind: self.skin_kind,
             ..SkinSpec::from_tube(&self.tube, around, along)
         };
-        let mut skin = Skin::new(self.skin_law(), &spec, ends)?;
+        let mut skin = Skin::new(self.skin_law()?, &spec, ends)?;
         skin.round_rings = self.round_zone;
         // The solid wall's element loop follows the DEM's instruction set.
         if let Some(solid) = &mut skin.solid {
@@ -857,7 +878,7 @@ impl ScenarioSpec {
 
 /// The skin of law `law` as a contact material: E = 3μ, nearly
 /// incompressible, tissue density.
-pub fn skin_material(law: &Yeoh) -> Material {
+pub fn skin_material(law: &dyn StrainEnergy) -> Material {
     Material {
         youngs_modulus_pa: 3.0 * law.shear_modulus_kpa() * 1e3,
         poisson_ratio: 0.49,
@@ -900,7 +921,7 @@ pub struct Bed {
     /// Particles and time.
     pub state: State,
     /// The skin, its contact law and the front face.
-    pub coupling: Coupling<Yeoh>,
+    pub coupling: Coupling<SkinLaw>,
     /// Grains of the slab (the first ones in `state.particles`).
     pub slab_grains: usize,
     /// Heavy surcharge grains (the last ones).
@@ -965,7 +986,7 @@ impl Laws {
     }
 
     /// Grain–skin contacts for the skin of `law`.
-    fn skin(&self, law: &Yeoh) -> Result<ContactModel> {
+    fn skin(&self, law: &dyn StrainEnergy) -> Result<ContactModel> {
         Ok(ContactModel::hertz_mindlin(
             &self.mat,
             &skin_material(law),
@@ -995,7 +1016,7 @@ impl Bed {
         for (w, s) in self.params.walls.iter_mut().zip(&laws.walls) {
             w.model = laws.grains(s)?;
         }
-        self.coupling.model = laws.skin(&self.spec.skin_law())?;
+        self.coupling.model = laws.skin(&self.spec.skin_law()?)?;
         self.coupling.set_dt_s(laws.dt_s);
         if let Some(face) = &mut self.coupling.face {
             face.model = laws.grains(&laws.rough)?;
@@ -1043,7 +1064,7 @@ pub fn build(spec: &ScenarioSpec) -> Result<Bed> {
         bulk_modulus_pa: FLUID_BULK_MODULUS_PA,
     });
     let zone_m = skin.spec.length_m;
-    let mut coupling = Coupling::new(skin, laws.skin(&spec.skin_law())?, dt)?;
+    let mut coupling = Coupling::new(skin, laws.skin(&spec.skin_law()?)?, dt)?;
     coupling.set_mass_scaling(spec.skin_mass_scaling && spec.skin_kind.layers() > 0)?;
     // The face spans the clamped end ring's outer radius.
     let face_radius = coupling.skin.spec.mid_radius_m + 0.5 * coupling.skin.spec.thickness_m;

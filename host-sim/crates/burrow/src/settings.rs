@@ -97,6 +97,10 @@ pub struct SimulateSettings {
     pub seeds: u64,
     /// The shorter case ([`ScenarioSpec::quick`]).
     pub quick: bool,
+    /// A law from fit-skin's report (`--skin-fit`, `--skin-law`) that
+    /// replaces the skin (the rig's `[skin]`, or the paper's calibrated
+    /// default skin), used as measured (stiffness scale 1).
+    pub skin_fit: Option<skin::SkinFitChoice>,
     /// Folder for the results.
     pub out: PathBuf,
 }
@@ -127,7 +131,15 @@ pub enum Outcome {
 impl SimulateSettings {
     /// The case these settings describe, checked.
     pub fn plan(&self) -> Result<Plan> {
-        let setup = self.rig.as_deref().map(Rig::read_setup).transpose()?;
+        let mut setup = self.rig.as_deref().map(Rig::read_setup).transpose()?;
+        let chosen = self
+            .skin_fit
+            .as_ref()
+            .map(skin::SkinFitChoice::read)
+            .transpose()?;
+        if let (Some(c), Some((rig, file, w))) = (&chosen, &mut setup) {
+            w.extend(rig.use_skin_fit(c.clone(), file));
+        }
         let r = grain_radius_m(self.grain_radius_mm, setup.as_ref().map(|(rig, ..)| rig));
         let h = self.depth_mm * 1e-3;
         let mut spec = if self.quick {
@@ -143,8 +155,20 @@ impl SimulateSettings {
             spec = with_rig;
             notes = n;
             warnings.clone_from(w);
-        } else if let Some(d) = final_m {
-            spec.final_diameter_m = d;
+        } else {
+            if let Some(d) = final_m {
+                spec.final_diameter_m = d;
+            }
+            if let Some(c) = &chosen {
+                notes.push(format!(
+                    "the skin is {}, {}, used as measured (scale 1, not the paper's calibrated {})",
+                    c.source,
+                    c.law.describe(),
+                    spec.skin_stiffness_scale
+                ));
+                warnings.extend(c.warnings.iter().cloned());
+                spec = spec.with_skin_law(c.law.clone());
+            }
         }
         // mm → m and ms → s.
         let milli = |v: f64| v * 1e-3;
@@ -268,15 +292,24 @@ pub fn grain_radius_m(given_mm: Option<f64>, rig: Option<&Rig>) -> f64 {
 
 /// The rig at `path` (a rig.toml or an experiment folder) with the zone's
 /// final diameter, for the commands that run the solver at several
-/// depths; with the rig file's warnings.
+/// depths, its skin replaced by `skin_fit`'s law when given (which needs
+/// the rig); with the rig file's warnings.
 pub fn rig_setup(
     path: Option<&Path>,
     final_diameter_mm: Option<f64>,
+    skin_fit: Option<&skin::SkinFitChoice>,
 ) -> Result<(Option<RigSetup>, Vec<String>)> {
     let Some(path) = path else {
+        ensure!(
+            skin_fit.is_none(),
+            "--skin-fit needs --rig here: the paper's case keeps its calibrated skin"
+        );
         return Ok((None, Vec::new()));
     };
-    let (rig, file, warnings) = Rig::read_setup(path)?;
+    let (mut rig, file, mut warnings) = Rig::read_setup(path)?;
+    if let Some(choice) = skin_fit {
+        warnings.extend(rig.use_skin_fit(choice.read()?, &file));
+    }
     Ok((
         Some(RigSetup {
             rig,

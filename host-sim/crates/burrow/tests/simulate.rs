@@ -330,7 +330,7 @@ fn a_rig_sets_the_actuator_the_sand_the_fluid_and_the_box() {
     assert_eq!(spec.tube.wall_thickness_mm, 2.2);
     // Measured skin: used as given, no calibration scale.
     assert_eq!(spec.skin_stiffness_scale, 1.0);
-    assert_eq!(spec.skin_law().c20_kpa, 0.5);
+    assert_eq!(spec.skin_law().unwrap().yeoh().unwrap().c20_kpa, 0.5);
     assert!((spec.final_diameter_m - 30e-3 * 25.0 / 18.7).abs() < 1e-15);
     // A wide tank: 3 final diameters, frictionless sides.
     assert!((spec.box_width_m - 3.0 * spec.final_diameter_m).abs() < 1e-15);
@@ -651,7 +651,7 @@ fn the_bed_settles_soft_and_is_stiffened_for_the_advance_and_expansion() {
             poisson_ratio: 0.3,
             density_kg_m3: spec.grain_density_kg_m3,
         };
-        let skin = sand.effective_modulus_pa(&skin_material(&spec.skin_law()));
+        let skin = sand.effective_modulus_pa(&skin_material(&spec.skin_law().unwrap()));
         assert!((e_star(&bed.coupling.model) / skin - 1.0).abs() < 1e-12);
         assert_eq!(
             (bed.params.dt_s, bed.coupling.dt_s, face.dt_s),
@@ -769,4 +769,60 @@ fn a_solid_skin_recoils_less_than_the_membrane_and_touches_the_sand_with_its_out
     assert!(last.contacts > 0 && last.sand_pressure_pa > 0.0);
     assert!(last.outer_diameter_m > 24e-3, "{}", last.outer_diameter_m);
     assert!(last.max_von_mises_pa > 0.0 && last.max_bending_strain.is_none());
+}
+
+/// `--skin-fit`: a Gent law from fit-skin's report replaces the paper's
+/// calibrated default skin (scale 1, a note saying so) and a rig's Yeoh
+/// `[skin]` (a warning naming both); the FEM skin is built of it, and the
+/// case's key (its `Debug`) names the law.
+#[test]
+fn a_skin_fit_replaces_the_papers_skin_and_a_rigs() {
+    use burrow::settings::SimulateSettings;
+    use skin::{SkinFitChoice, StrainEnergy};
+    let dir = tempfile::tempdir().unwrap();
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/skin/unicinctus_circumferential.csv");
+    let fit = skin::report::fit_skin(&data, dir.path()).unwrap();
+    let choice = SkinFitChoice {
+        file: fit.json_path.clone(),
+        law: Some("Gent".into()),
+    };
+    let gent = fit.report.fit("Gent").unwrap().parameters.clone();
+    let settings = SimulateSettings {
+        depth_mm: 40.0,
+        seeds: 1,
+        skin_fit: Some(choice.clone()),
+        out: dir.path().join("out"),
+        ..SimulateSettings::default()
+    };
+    let plan = settings.plan().unwrap();
+    let law = plan.spec.skin_law().unwrap();
+    assert_eq!((law.name(), law.parameters()), ("Gent", gent.clone()));
+    assert_eq!(plan.spec.skin_stiffness_scale, 1.0);
+    assert!(
+        plan.notes.iter().any(|n| n.contains("the Gent coupon fit")),
+        "{:?}",
+        plan.notes
+    );
+    assert!(format!("{:?}", plan.spec).contains("skin_coefficients: Some(Gent { mu_kpa: "));
+    let skin = plan.spec.skin(Ends::Clamped).unwrap();
+    assert_eq!(skin.law.name(), "Gent");
+
+    // A rig with a [skin]: replaced, and the warning names both laws.
+    let rig_file = dir.path().join("rig.toml");
+    std::fs::write(&rig_file, Rig::paper_default().to_toml().unwrap()).unwrap();
+    let plan = SimulateSettings {
+        rig: Some(rig_file),
+        ..settings
+    }
+    .plan()
+    .unwrap();
+    assert_eq!(plan.spec.skin_law().unwrap().parameters(), gent);
+    assert!(
+        plan.warnings
+            .iter()
+            .any(|w| w.contains("[skin] (Yeoh c10_kpa = 2") && w.contains("Gent mu_kpa")),
+        "{:?}",
+        plan.warnings
+    );
 }

@@ -62,7 +62,7 @@ pub mod vtk;
 
 mod strain_energy;
 mod tube;
-pub use strain_energy::StrainEnergy;
+pub use strain_energy::{LawVisitor, StrainEnergy};
 pub use tube::TubeGeometry;
 
 use std::num::NonZeroUsize;

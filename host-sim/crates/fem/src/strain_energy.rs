@@ -99,6 +99,26 @@ pub trait StrainEnergy: std::fmt::Debug + Send + Sync {
         let [t1, _, t3] = self.extra_stress_kpa([stretch, 1.0, 1.0 / stretch]);
         (t1 - t3) / stretch
     }
+
+    /// Runs `v` on this law as its own concrete type. A law chosen at run
+    /// time (a wrapper holding one of several laws) overrides it to hand
+    /// over the law it holds, so an element loop dispatches once, not at
+    /// every quadrature point.
+    fn visit<V: LawVisitor>(&self, v: V) -> V::Output
+    where
+        Self: Sized,
+    {
+        v.visit(self)
+    }
+}
+
+/// Work over a law of any concrete type ([`StrainEnergy::visit`]): the
+/// element loops, compiled for the law they are handed.
+pub trait LawVisitor {
+    /// What the work returns.
+    type Output;
+    /// Does the work with `law`.
+    fn visit<L: StrainEnergy + ?Sized>(self, law: &L) -> Self::Output;
 }
 
 /// A boxed law is a law: every method forwards, the overridden views

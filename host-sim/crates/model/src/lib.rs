@@ -56,8 +56,8 @@ pub struct RigBasis {
     pub sand: Option<SandParams>,
     /// Syringe bore area (mm²).
     pub bore_area_mm2: f64,
-    /// Whether the skin is known (`[skin]` in rig.toml): its stiffness
-    /// scale is then not fitted.
+    /// Whether the skin is known (`[skin]` in rig.toml, or `--skin-fit`):
+    /// its stiffness scale is then not fitted.
     pub skin_known: bool,
 }
 
@@ -89,7 +89,7 @@ impl RigBasis {
             membrane,
             sand,
             bore_area_mm2: std::f64::consts::PI * rig.pump.syringe_bore_mm.powi(2) / 4.0,
-            skin_known: rig.skin.is_some(),
+            skin_known: rig.skin_known(),
         }))
     }
 

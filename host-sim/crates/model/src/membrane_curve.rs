@@ -3,15 +3,16 @@
 //! a time step needs it thousands of times per second of data, the tube
 //! solves an axial balance at every call.
 //!
-//! Scaling every Yeoh coefficient by s scales all stresses by s and leaves
-//! the closed-end axial balance (homogeneous in stress) unchanged, so
-//! p_membrane is exactly linear in s: one curve serves every stiffness
-//! scale the calibration tries.
+//! Scaling W by s (every modulus of the law: all of Yeoh's coefficients,
+//! Gent's μ, Ogden's μp; [`skin::SkinLaw::scaled`]) scales all stresses by
+//! s and leaves the closed-end axial balance (homogeneous in stress)
+//! unchanged, so p_membrane is exactly linear in s for every law: one
+//! curve serves every stiffness scale the calibration tries.
 
 use anyhow::{bail, Result};
 
 use skin::membrane::{Ends, Tube, TubeGeometry};
-use skin::Yeoh;
+use skin::StrainEnergy;
 
 /// Sample spacing of the curve (mm): cubic Hermite interpolation at this
 /// spacing is within ~1e-6 kPa of the tube on the default skin.
@@ -29,22 +30,30 @@ pub struct MembraneCurve {
 
 impl MembraneCurve {
     /// Samples the closed-end tube of `skin` with rest geometry `geometry`
-    /// from 0.7·D0 to 2.6·D0 (or as far as the tube can be solved).
-    pub fn sample(geometry: TubeGeometry, skin: Yeoh) -> Result<Self> {
+    /// from 0.7·D0 to 2.6·D0 (or over the part of it where the tube can be
+    /// solved, which must include D0).
+    pub fn sample<S: StrainEnergy>(geometry: TubeGeometry, skin: S) -> Result<Self> {
         let tube = Tube::new(geometry, skin, Ends::Closed)?;
         let d0 = geometry.outer_diameter_mm;
         // Start just above the diameter at which the bore closes.
         let ro = geometry.outer_radius_mm();
         let ri = geometry.inner_radius_mm();
         let closes_mm = 2.0 * (ro * ro - ri * ri).sqrt();
-        let first = (0.7 * d0).max(closes_mm + 0.5).min(d0 - SPACING_MM);
+        let start = (0.7 * d0).max(closes_mm + 0.5).min(d0 - SPACING_MM);
+        let mut first = start;
         let last = 2.6 * d0;
-        let n = ((last - first) / SPACING_MM).ceil() as usize + 1;
+        let n = ((last - start) / SPACING_MM).ceil() as usize + 1;
         let mut pressure = Vec::with_capacity(n);
         for i in 0..n {
-            let d = first + SPACING_MM * i as f64;
+            let d = start + SPACING_MM * i as f64;
             match tube.pressure_kpa(d) {
                 Ok(p) if p.is_finite() => pressure.push(p),
+                // A law that locks (Gent with a small Jm) has no squeezed
+                // tube that far below D0: the curve starts later and is
+                // extended linearly below.
+                _ if pressure.is_empty() && d < d0 - SPACING_MM => {
+                    first = start + SPACING_MM * (i + 1) as f64;
+                }
                 // The tube stops having a solution: the curve ends here
                 // and is extended linearly.
                 _ if d > d0 + 1.0 => break,
@@ -103,6 +112,33 @@ impl MembraneCurve {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_gent_or_ogden_curve_matches_its_tube_and_scales_linearly() {
+        let g = TubeGeometry::PAPER;
+        for name in ["Gent", "Ogden-3"] {
+            let spec = skin::LawSpec::by_name(name).unwrap();
+            let law = skin::law::example(spec);
+            let curve = MembraneCurve::sample(g, law.clone()).unwrap();
+            let tube = Tube::new(g, law.clone(), Ends::Closed).unwrap();
+            // The scale the workbench fits: W × s is the curve × s.
+            let s = 0.37;
+            let scaled = MembraneCurve::sample(g, law.scaled(s).unwrap()).unwrap();
+            for d in [19.337, 21.0, 22.021, 25.0, 28.46, 31.77] {
+                let want = tube.pressure_kpa(d).unwrap();
+                let got = curve.pressure_kpa(d);
+                assert!(
+                    (got - want).abs() < 1e-4 * want.abs(),
+                    "{name} D {d}: {got} vs {want}"
+                );
+                let k = scaled.pressure_kpa(d);
+                assert!(
+                    (k - s * got).abs() < 1e-9 * got.abs(),
+                    "{name} D {d}: scaled {k} vs {s} × {got}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn matches_the_tube_between_samples() {

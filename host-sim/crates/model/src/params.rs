@@ -53,7 +53,7 @@ pub const BASELINE_PARAMS: [ParamSpec; 4] = [
         upper: 20.0,
         default: 1.0,
         description:
-            "factor on every skin (Yeoh) coefficient; fitted only when rig.toml has no [skin]",
+            "factor on the skin law's strain energy (every modulus); fitted only when the skin is not known (no [skin], no --skin-fit)",
     },
     ParamSpec {
         name: "sand_at_rest_factor",
@@ -89,7 +89,7 @@ pub const BASELINE_PARAMS: [ParamSpec; 4] = [
 /// Values of the baseline's uncertain parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Params {
-    /// Factor on the skin's strain energy (all Yeoh coefficients).
+    /// Factor on the skin's strain energy (every modulus of its law).
     pub skin_stiffness_scale: f64,
     /// Factor on the sand's at-rest coefficient K0.
     pub sand_at_rest_factor: f64,

@@ -12,7 +12,7 @@ use rig::Rig;
 
 use sand::{ParametricSand, SandLaw, SolverSand};
 use skin::membrane::{Ends, InflationState, Tube};
-use skin::Yeoh;
+use skin::SkinLaw;
 
 /// The physics a table is sampled from: loading-branch internal pressure
 /// p_i(D, h) in kPa for outer diameter D (mm) and sand depth h (mm).
@@ -29,7 +29,9 @@ pub trait PressureModel {
 #[derive(Clone, Debug)]
 pub struct SkinSandModel<S = ParametricSand> {
     /// The skin tube of the expansion zone.
-    pub tube: Tube<Yeoh>,
+    pub tube: Tube<SkinLaw>,
+    /// Where the skin's law comes from (the file's provenance line).
+    pub skin_source: String,
     /// The sand around it.
     pub sand: S,
 }
@@ -38,15 +40,19 @@ pub struct SkinSandModel<S = ParametricSand> {
 /// [`TubeGeometry::PAPER`](skin::membrane::TubeGeometry::PAPER)) of
 /// the default Yeoh skin with closed ends: the zone is part of a closed,
 /// pressurised body, so its wall carries the pressure on the cross-section.
-fn paper_tube() -> Tube<Yeoh> {
-    Tube::paper(skin::default_skin(), Ends::Closed)
+fn paper_tube() -> Tube<SkinLaw> {
+    Tube::paper(skin::default_skin().into(), Ends::Closed)
 }
+
+/// Where the default skin comes from.
+const DEFAULT_SKIN_SOURCE: &str = "fit to data/skin/unicinctus_circumferential.csv";
 
 impl SkinSandModel<ParametricSand> {
     /// The paper's zone in the balloon-calibrated parametric sand.
     pub fn paper_default() -> Self {
         Self {
             tube: paper_tube(),
+            skin_source: DEFAULT_SKIN_SOURCE.to_owned(),
             sand: ParametricSand::calibrated_to_balloon(),
         }
     }
@@ -58,14 +64,15 @@ impl SkinSandModel<SolverSand> {
     pub fn paper_solver(repo_root: &Path) -> Result<Self> {
         Ok(Self {
             tube: paper_tube(),
+            skin_source: DEFAULT_SKIN_SOURCE.to_owned(),
             sand: SolverSand::from_repo(repo_root)?,
         })
     }
 }
 
 impl SkinSandModel<SolverSand> {
-    /// The actuator of `rig` (its tube; its `[skin]` coefficients, else the
-    /// default skin; closed ends, as the paper's) in the solver sand
+    /// The actuator of `rig` (its tube; its skin law, [`Rig::skin_law`];
+    /// closed ends, as the paper's) in the solver sand
     /// `sand`, which must have been run for that actuator (same D0, from
     /// `solver-sand --rig`); `rig_file` names the rig in errors.
     pub fn for_rig(rig: &Rig, rig_file: &str, sand: SolverSand) -> Result<Self> {
@@ -78,11 +85,32 @@ impl SkinSandModel<SolverSand> {
         );
         let tube = Tube::new(a.tube(), rig.skin_law(), Ends::Closed)
             .with_context(|| format!("{rig_file}: [actuator]/[skin]: the skin tube"))?;
-        Ok(Self { tube, sand })
+        let skin_source = match (&rig.skin_fit, &rig.skin) {
+            (Some(fit), _) => fit.source.clone(),
+            (None, Some(_)) => "the rig's [skin]".to_owned(),
+            (None, None) => DEFAULT_SKIN_SOURCE.to_owned(),
+        };
+        Ok(Self {
+            tube,
+            skin_source,
+            sand,
+        })
     }
 }
 
 impl<S> SkinSandModel<S> {
+    /// This model with the skin `law` (from `source`, for the provenance
+    /// line) on the same tube and ends.
+    pub fn with_skin(self, law: SkinLaw, source: String) -> Result<Self> {
+        let tube = Tube::new(self.tube.geometry, law, self.tube.ends)
+            .context("the skin tube of the fitted law")?;
+        Ok(Self {
+            tube,
+            skin_source: source,
+            sand: self.sand,
+        })
+    }
+
     /// The skin's pressure p_membrane (kPa) at outer diameter `diameter_mm`.
     pub fn membrane_kpa(&self, diameter_mm: f64) -> Result<f64> {
         Ok(self.tube.pressure_kpa(diameter_mm)?)
@@ -103,20 +131,20 @@ impl<S: SandLaw> PressureModel for SkinSandModel<S> {
     }
 
     fn provenance(&self) -> String {
-        let y = &self.tube.skin;
         let g = &self.tube.geometry;
+        let law = match self.tube.skin.yeoh() {
+            // The Yeoh line as it has always read (the committed table's).
+            Some(y) => format!(
+                "Yeoh C10={:.4} C20={:.5} C30={:.6} kPa",
+                y.c10_kpa, y.c20_kpa, y.c30_kpa
+            ),
+            None => self.tube.skin.describe(),
+        };
         format!(
-            "host-sim skin + sand (issue 3): Yeoh C10={:.4} C20={:.5} C30={:.6} kPa \
+            "host-sim skin + sand (issue 3): {law} \
              ({}), {} thick tube \
              D0={} mm wall={} mm; {}",
-            y.c10_kpa,
-            y.c20_kpa,
-            y.c30_kpa,
-            if *y == skin::default_skin() {
-                "fit to data/skin/unicinctus_circumferential.csv"
-            } else {
-                "the rig's [skin]"
-            },
+            self.skin_source,
             self.tube.ends.label(),
             g.outer_diameter_mm,
             g.wall_thickness_mm,

@@ -165,6 +165,12 @@ pub struct Rig {
     pub pump: Pump,
     /// `[measurement]`.
     pub measurement: Measurement,
+    /// A fitted law that replaces `[skin]` (`--skin-fit`, fit-skin's
+    /// report; [`Rig::use_skin_fit`]): any registered law, where the file's
+    /// `[skin]` is a Yeoh law only. Not part of rig.toml: never read from
+    /// it nor written to it.
+    #[serde(skip)]
+    pub skin_fit: Option<skin::ChosenLaw>,
 }
 
 /// One section of `rig.toml` as the format defines it.
@@ -373,12 +379,40 @@ impl<'a> RigDoc<'a> {
 }
 
 impl Rig {
-    /// The skin's law: the `[skin]` coefficients, else the project's
-    /// default skin.
-    pub fn skin_law(&self) -> skin::Yeoh {
-        self.skin
-            .as_ref()
-            .map_or_else(skin::default_skin, Skin::yeoh)
+    /// The skin's law: the fitted law of `--skin-fit`, else the `[skin]`
+    /// coefficients, else the project's default skin.
+    pub fn skin_law(&self) -> skin::SkinLaw {
+        match (&self.skin_fit, &self.skin) {
+            (Some(fit), _) => fit.law.clone(),
+            (None, Some(s)) => s.yeoh().into(),
+            (None, None) => skin::default_skin().into(),
+        }
+    }
+
+    /// Whether the skin's law is known (`--skin-fit` or `[skin]`): its
+    /// stiffness is then used as measured, not fitted.
+    pub fn skin_known(&self) -> bool {
+        self.skin_fit.is_some() || self.skin.is_some()
+    }
+
+    /// The skin of `chosen` (read from `--skin-fit`) replaces this rig's:
+    /// returns the warnings, one naming both laws when `rig_file` has a
+    /// `[skin]`, and the report's own doubts about the law.
+    pub fn use_skin_fit(&mut self, chosen: skin::ChosenLaw, rig_file: &str) -> Vec<String> {
+        let mut warnings = Vec::new();
+        if let Some(s) = &self.skin {
+            warnings.push(format!(
+                "{rig_file}: [skin] (Yeoh c10_kpa = {}, c20_kpa = {}, c30_kpa = {}) is replaced by {}, {} (--skin-fit)",
+                s.c10_kpa,
+                s.c20_kpa,
+                s.c30_kpa,
+                chosen.source,
+                chosen.law.describe()
+            ));
+        }
+        warnings.extend(chosen.warnings.iter().cloned());
+        self.skin_fit = Some(chosen);
+        warnings
     }
 
     /// The paper's set-up, as in the example of `shared/data-format.md`.
@@ -421,6 +455,7 @@ impl Rig {
                 pressure_source: PressureSource::LineSensor,
                 pressure_noise_kpa: Some(0.03),
             },
+            skin_fit: None,
         }
     }
 
@@ -492,6 +527,7 @@ impl Rig {
                     NonNegative,
                 )?,
             },
+            skin_fit: None,
         };
         let a = &rig.actuator;
         if a.skin_thickness_mm >= a.initial_diameter_mm / 2.0 {

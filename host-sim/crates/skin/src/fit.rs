@@ -362,6 +362,7 @@ pub fn fit_law(spec: &'static LawSpec, tests: &[CouponTest]) -> Result<LawFit, F
             bounds,
             linear_in,
             starts,
+            ..
         } => {
             let residuals = |x: &[f64]| -> Option<Vec<f64>> {
                 let law = (spec.from_parameters)(x)?;
@@ -374,7 +375,7 @@ pub fn fit_law(spec: &'static LawSpec, tests: &[CouponTest]) -> Result<LawFit, F
             };
             let nonlinear: Vec<usize> = (0..p).filter(|k| !linear_in.contains(k)).collect();
             let starts = starts();
-            let mut best: Option<lm::Minimum> = None;
+            let mut best: Option<(lm::Minimum, Vec<(f64, f64)>)> = None;
             for start in &starts {
                 let mut x = vec![0.0; p];
                 for (k, v) in nonlinear.iter().zip(start) {
@@ -391,19 +392,22 @@ pub fn fit_law(spec: &'static LawSpec, tests: &[CouponTest]) -> Result<LawFit, F
                 for (k, v) in linear_in.iter().zip(mu) {
                     x[*k] = v;
                 }
-                let Some(m) = lm::minimise(residuals, &x, bounds) else {
+                // This start's bounds: the law's, with its sign pairs
+                // held (Ogden's μp·αp > 0).
+                let held = spec.bounds_from(&x).unwrap_or_else(|| bounds.to_vec());
+                let Some(m) = lm::minimise(residuals, &x, &held) else {
                     continue;
                 };
-                if best.as_ref().is_none_or(|b| m.rss < b.rss) {
-                    best = Some(m);
+                if best.as_ref().is_none_or(|(b, _)| m.rss < b.rss) {
+                    best = Some((m, held));
                 }
             }
-            let best = best.ok_or(FitError::NoStart { law: spec.name })?;
+            let (best, held) = best.ok_or(FitError::NoStart { law: spec.name })?;
             let errors = lm::standard_errors(&best.jacobian, best.rss);
             at_bound = best
                 .x
                 .iter()
-                .zip(bounds)
+                .zip(&held)
                 .zip(spec.parameter_names)
                 .filter(|((v, (lo, hi)), _)| *v <= lo || *v >= hi)
                 .map(|(_, n)| *n)

@@ -35,6 +35,7 @@ impl Gent {
                     .map(|jm| vec![jm])
                     .to_vec()
             },
+            sign_pairs: &[],
         },
     };
 

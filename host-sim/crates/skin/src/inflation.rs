@@ -186,6 +186,7 @@ pub fn fit_inflation(
             bounds,
             linear_in,
             starts,
+            ..
         } => {
             let nonlinear: Vec<usize> = (0..p).filter(|k| !linear_in.contains(k)).collect();
             let starts = starts()
@@ -225,7 +226,9 @@ pub fn fit_inflation(
     };
     let mut best: Option<lm::Minimum> = None;
     for s in &starts {
-        let Some(m) = lm::minimise_until(residuals, s, &bounds, lm::Stop::TUBE) else {
+        // Nonlinear laws keep their sign pairs (Ogden's μp·αp > 0).
+        let held = spec.bounds_from(s).unwrap_or_else(|| bounds.clone());
+        let Some(m) = lm::minimise_until(residuals, s, &held, lm::Stop::TUBE) else {
             continue;
         };
         if best.as_ref().is_none_or(|b| m.rss < b.rss) {

@@ -14,6 +14,10 @@
 //! least squares; Ogden and Gent by a bounded Levenberg–Marquardt from
 //! several starts ([`fit`], [`lm`]).
 //!
+//! - [`law`]: [`SkinLaw`], any registered law with its coefficients,
+//!   chosen at run time, serialisable, scalable;
+//! - [`choice`]: the command line's skin options (`--skin-fit`,
+//!   `--skin-law`, `--fit-modes`, `--inflation-law`);
 //! - [`coupon`]: reading skin tests of every mode (`shared/data-format.md`);
 //! - [`fit`]: joint least-squares fit, standard errors, per-mode R² and
 //!   RMSE, Drucker stability scan;
@@ -25,10 +29,12 @@
 //! - [`unicinctus`]: the synthetic *U. unicinctus* data set and the default
 //!   skin fitted to it.
 
+pub mod choice;
 pub mod coupon;
 pub mod fit;
 pub mod gent;
 pub mod inflation;
+pub mod law;
 pub mod lm;
 pub mod membrane;
 pub mod mooney_rivlin;
@@ -39,7 +45,9 @@ pub mod report;
 pub mod unicinctus;
 pub mod yeoh;
 
+pub use choice::{ChosenLaw, SkinFitChoice};
 pub use gent::Gent;
+pub use law::SkinLaw;
 pub use mooney_rivlin::MooneyRivlin;
 pub use neo_hookean::NeoHookean;
 pub use ogden::{Ogden, OgdenTerm};
@@ -78,13 +86,77 @@ pub enum Form {
         linear_in: &'static [usize],
         /// Starting values of the other coefficients, one vector per start.
         starts: fn() -> Vec<Vec<f64>>,
+        /// Modulus–exponent pairs whose product must not be negative
+        /// (Ogden's μp·αp > 0, Ogden 1972): each start keeps every pair in
+        /// the sign of its starting exponent ([`LawSpec::bounds_from`]).
+        sign_pairs: &'static [SignPair],
     },
 }
+
+/// A modulus and an exponent (indices into the coefficients) that must
+/// share their sign: the term's contribution μp·αp/2 to the shear modulus
+/// is then positive, and the term stiffens as it is stretched.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SignPair {
+    /// Index of the modulus.
+    pub modulus: usize,
+    /// Index of the exponent.
+    pub exponent: usize,
+}
+
+/// Smallest |exponent| of a [`SignPair`] in a fit: the pair's sign must not
+/// flip through zero, where the term vanishes (dimensionless).
+pub const MIN_ABS_EXPONENT: f64 = 0.01;
 
 impl LawSpec {
     /// Looks a law up in [`LAWS`] by name.
     pub fn by_name(name: &str) -> Option<&'static LawSpec> {
         LAWS.iter().find(|l| l.name == name)
+    }
+
+    /// [`LawSpec::by_name`], or an error naming `what` (the option or
+    /// file field it came from) and listing every law.
+    pub fn named(name: &str, what: &str) -> anyhow::Result<&'static LawSpec> {
+        Self::by_name(name).ok_or_else(|| {
+            let names: Vec<&str> = LAWS.iter().map(|l| l.name).collect();
+            anyhow::anyhow!("{what}: no law `{name}` (laws: {})", names.join(", "))
+        })
+    }
+
+    /// Indices of the coefficients W is linear in (the moduli): scaling
+    /// them by s scales W, and every stress, by s.
+    pub fn moduli(&self) -> Vec<usize> {
+        match self.form {
+            Form::Linear => (0..self.parameter_names.len()).collect(),
+            Form::Nonlinear { linear_in, .. } => linear_in.to_vec(),
+        }
+    }
+
+    /// The bounds a nonlinear fit from `start` keeps to: the law's own,
+    /// and each [`SignPair`] held in the sign of its starting exponent
+    /// (modulus and exponent of that sign, |exponent| ≥
+    /// [`MIN_ABS_EXPONENT`]); a zero starting exponent counts as positive.
+    /// `None` for a linear law (no bounds).
+    pub fn bounds_from(&self, start: &[f64]) -> Option<Vec<(f64, f64)>> {
+        let Form::Nonlinear {
+            bounds, sign_pairs, ..
+        } = self.form
+        else {
+            return None;
+        };
+        let mut b = bounds.to_vec();
+        for pair in sign_pairs {
+            let positive = start.get(pair.exponent).is_none_or(|a| *a >= 0.0);
+            let (m, e) = (pair.modulus, pair.exponent);
+            if positive {
+                b[m].0 = b[m].0.max(0.0);
+                b[e].0 = b[e].0.max(MIN_ABS_EXPONENT);
+            } else {
+                b[m].1 = b[m].1.min(0.0);
+                b[e].1 = b[e].1.min(-MIN_ABS_EXPONENT);
+            }
+        }
+        Some(b)
     }
 }
 
@@ -120,18 +192,8 @@ mod tests {
     /// A set of coefficients for each law that keeps every derivative
     /// nonzero, so the checks below are not trivially satisfied.
     fn sample_laws() -> Vec<Box<dyn StrainEnergy>> {
-        let params: [&[f64]; 7] = [
-            &[150.0],
-            &[120.0, 35.0],
-            &[180.0, -4.0, 0.15],
-            &[300.0, 40.0],
-            &[250.0, 2.7],
-            &[400.0, 1.5, 2.0, 4.2],
-            &[630.0, 1.3, 1.2, 5.0, -10.0, -2.0],
-        ];
         LAWS.iter()
-            .zip(params)
-            .map(|(spec, p)| (spec.from_parameters)(p).unwrap())
+            .map(|spec| (spec.from_parameters)(&law::example(spec).parameters()).unwrap())
             .collect()
     }
 

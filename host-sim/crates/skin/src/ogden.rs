@@ -27,7 +27,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Form, LawSpec, StrainEnergy};
+use super::{Form, LawSpec, SignPair, StrainEnergy};
 
 /// One Ogden term: μp/αp·(Σa λa^αp − 3).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -68,7 +68,9 @@ const BOUNDS: &[(f64, f64)] = &[
 ];
 
 /// Starting exponents the fitter tries (moduli then by linear least
-/// squares): the published Treloar shapes and spreads around them.
+/// squares): the published Treloar shapes and spreads around them. A
+/// start's exponent signs fix its terms' signs ([`SIGN_PAIRS`]), so the
+/// starts cover every sign pattern up to the terms' order but all-negative.
 fn alpha_starts(terms: usize) -> Vec<Vec<f64>> {
     match terms {
         1 => vec![
@@ -86,6 +88,7 @@ fn alpha_starts(terms: usize) -> Vec<Vec<f64>> {
             vec![3.0, -1.0],
             vec![0.5, 7.0],
             vec![1.5, 9.0],
+            vec![-1.0, -4.0],
         ],
         _ => vec![
             vec![1.3, 5.0, -2.0],
@@ -95,12 +98,31 @@ fn alpha_starts(terms: usize) -> Vec<Vec<f64>> {
             vec![1.8, 8.0, -0.5],
             vec![3.0, 1.0, -4.0],
             vec![1.2, 5.5, 2.5],
+            vec![2.0, -1.0, -3.0],
         ],
     }
 }
 
 /// Which coefficients the stresses are linear in (the moduli).
 const MU_INDEX: &[usize] = &[0, 2, 4];
+
+/// Each term's μp and αp share their sign in a fit (μp·αp > 0, Ogden
+/// 1972): every term then stiffens in tension and adds to the shear
+/// modulus ½Σμpαp, so a fit is never unstable at rest.
+const SIGN_PAIRS: &[SignPair] = &[
+    SignPair {
+        modulus: 0,
+        exponent: 1,
+    },
+    SignPair {
+        modulus: 2,
+        exponent: 3,
+    },
+    SignPair {
+        modulus: 4,
+        exponent: 5,
+    },
+];
 
 fn one(p: &[f64]) -> Option<Box<dyn StrainEnergy>> {
     sized(p, 1)
@@ -129,6 +151,7 @@ impl Ogden {
                 bounds: BOUNDS.split_at(2).0,
                 linear_in: MU_INDEX.split_at(1).0,
                 starts: || alpha_starts(1),
+                sign_pairs: SIGN_PAIRS.split_at(1).0,
             },
         },
         LawSpec {
@@ -139,6 +162,7 @@ impl Ogden {
                 bounds: BOUNDS.split_at(4).0,
                 linear_in: MU_INDEX.split_at(2).0,
                 starts: || alpha_starts(2),
+                sign_pairs: SIGN_PAIRS.split_at(2).0,
             },
         },
         LawSpec {
@@ -149,6 +173,7 @@ impl Ogden {
                 bounds: BOUNDS,
                 linear_in: MU_INDEX,
                 starts: || alpha_starts(3),
+                sign_pairs: SIGN_PAIRS.split_at(3).0,
             },
         },
     ];

@@ -354,6 +354,13 @@ fn issue_29_treloar_joint_ogden_beats_the_published_set_on_every_mode() {
     }
     // The published set is the literature's: μ = ½Σμpαp ≈ 0.42 MPa.
     assert!((published.shear_modulus_kpa() - 422.5).abs() < 1e-9);
+    // Every Ogden fit keeps μp·αp ≥ 0 in every term (Ogden 1972).
+    for law in ["Ogden-1", "Ogden-2", "Ogden-3"] {
+        let p = &report.fit(law).unwrap().parameters;
+        for t in p.chunks_exact(2) {
+            assert!(t[0] * t[1] >= 0.0, "{law}: {p:?}");
+        }
+    }
     assert!(fitted.stability.stable_over_data);
     // Every mode fitted well by the best laws; each nonlinear fit's
     // standard errors exist.
@@ -524,13 +531,17 @@ fn issue_29_tube_law_choice_at_the_actuators_stretch() {
     let w = |case: &str, law: &str| worst[&(case, law)];
     // Fitted over the full range to uniaxial data, the one- and
     // two-coefficient laws spend their freedom on the large-strain upturn
-    // and miss the tube by a third or more; Yeoh and Ogden-3 stay within
-    // 10 %.
+    // and miss the tube by a third or more; Yeoh stays within 10 %, the
+    // closest of all (Ogden-3, its terms held to μp·αp ≥ 0, misses by
+    // about 16 %).
     for law in ["neo-Hookean", "Gent", "Ogden-1"] {
         assert!(w("uniaxial, full range", law) > 0.3, "{law}");
     }
-    for law in ["Yeoh", "Ogden-3"] {
-        assert!(w("uniaxial, full range", law) < 0.1, "{law}");
+    let yeoh = w("uniaxial, full range", "Yeoh");
+    assert!(yeoh < 0.1, "{yeoh}");
+    for law in LAWS_FITTED_SMALL {
+        let d = w("uniaxial, full range", law);
+        assert!(law == "Yeoh" || d.is_nan() || d > yeoh, "{law}: {d}");
     }
     // Mooney–Rivlin fitted to uniaxial data alone is unstable at rest: no tube.
     assert!(w("uniaxial, full range", "Mooney-Rivlin").is_nan());
@@ -550,3 +561,74 @@ const LAWS_FITTED_SMALL: [&str; 7] = [
     "Ogden-2",
     "Ogden-3",
 ];
+
+/// Ogden fits hold μp·αp ≥ 0 in every term, even where the unconstrained
+/// least-squares optimum breaks it: data of Ogden-2 with μ1 = 300 kPa,
+/// α1 = 2 and μ2 = 20 kPa, α2 = −2 (Mooney–Rivlin with C01 = −10 kPa,
+/// stable over the data), all three modes to λ = 3.
+#[test]
+fn issue_29_an_ogden_fit_never_returns_a_term_with_negative_mu_alpha() {
+    let truth = Ogden::new(&[
+        skin::OgdenTerm {
+            mu_kpa: 300.0,
+            alpha: 2.0,
+        },
+        skin::OgdenTerm {
+            mu_kpa: 20.0,
+            alpha: -2.0,
+        },
+    ])
+    .unwrap();
+    let tests: Vec<CouponTest> = Mode::ALL
+        .iter()
+        .map(|m| {
+            let strain: Vec<f64> = (1..=20).map(|i| 0.1 * f64::from(i)).collect();
+            let p = strain
+                .iter()
+                .map(|e| m.nominal_kpa(&truth, 1.0 + e))
+                .collect();
+            CouponTest::from_nominal("synthetic", *m, strain, p)
+        })
+        .collect();
+    let spec = &Ogden::SPECS[1];
+    let skin::Form::Nonlinear { bounds, .. } = spec.form else {
+        unreachable!("Ogden is fitted nonlinearly")
+    };
+    // Unconstrained, within the law's own bounds alone, the truth is the
+    // optimum (zero residual) and it breaks the condition: μ2·α2 = −40.
+    let rows: Vec<(Mode, f64, f64)> = tests
+        .iter()
+        .flat_map(|t| {
+            t.stretch()
+                .zip(t.nominal_stress_kpa.clone())
+                .map(move |(l, p)| (t.mode, l, p))
+        })
+        .collect();
+    let residuals = |x: &[f64]| -> Option<Vec<f64>> {
+        let law = (spec.from_parameters)(x)?;
+        Some(
+            rows.iter()
+                .map(|(m, l, p)| m.nominal_kpa(law.as_ref(), *l) - p)
+                .collect(),
+        )
+    };
+    let free = skin::lm::minimise(residuals, &truth.parameters(), bounds).unwrap();
+    assert!(free.rss < 1e-12, "{}", free.rss);
+    assert!(free.x[2] * free.x[3] < 0.0, "{:?}", free.x);
+    // The fit does not return it: every term keeps μp·αp ≥ 0, at a cost.
+    let fit = fit_law(spec, &tests).unwrap();
+    println!(
+        "constrained Ogden-2 {:?}, RMSE per mode {:?} kPa",
+        fit.parameters,
+        fit.modes.iter().map(|m| m.rmse_kpa).collect::<Vec<_>>()
+    );
+    for t in fit.parameters.chunks_exact(2) {
+        assert!(t[0] * t[1] >= 0.0, "{:?}", fit.parameters);
+    }
+    assert!(fit.shear_modulus_kpa > 0.0);
+    assert!(
+        fit.modes.iter().any(|m| m.rmse_kpa > 1e-3),
+        "{:?}",
+        fit.modes
+    );
+}

@@ -102,10 +102,27 @@ impl TableSand {
     /// The skin + sand model with this sand; the solver's data are read
     /// from the repository root `repo_root`.
     pub fn model(self, repo_root: &Path) -> Result<Box<dyn PressureModel>> {
+        self.model_with_skin(repo_root, None)
+    }
+
+    /// [`TableSand::model`] with the skin `skin` (a law from `--skin-fit`)
+    /// instead of the default skin, when given.
+    pub fn model_with_skin(
+        self,
+        repo_root: &Path,
+        skin: Option<&skin::ChosenLaw>,
+    ) -> Result<Box<dyn PressureModel>> {
         use model::pressure_model::SkinSandModel;
-        Ok(match self {
-            TableSand::Parametric => Box::new(SkinSandModel::paper_default()),
-            TableSand::Solver => Box::new(SkinSandModel::paper_solver(repo_root)?),
+        Ok(match (self, skin) {
+            (TableSand::Parametric, None) => Box::new(SkinSandModel::paper_default()),
+            (TableSand::Parametric, Some(c)) => {
+                Box::new(SkinSandModel::paper_default().with_skin(c.law.clone(), c.source.clone())?)
+            }
+            (TableSand::Solver, None) => Box::new(SkinSandModel::paper_solver(repo_root)?),
+            (TableSand::Solver, Some(c)) => Box::new(
+                SkinSandModel::paper_solver(repo_root)?
+                    .with_skin(c.law.clone(), c.source.clone())?,
+            ),
         })
     }
 }
@@ -289,6 +306,9 @@ pub struct TablesSettings {
     /// A user's actuator (a rig.toml or an experiment folder) and the
     /// solver results for it, instead of the paper's.
     pub rig: Option<(PathBuf, PathBuf)>,
+    /// A law from fit-skin's report (`--skin-fit`, `--skin-law`) that
+    /// replaces the skin: the default skin's, or the rig's `[skin]`.
+    pub skin_fit: Option<skin::SkinFitChoice>,
     /// File to write; default: [`GENERATED_PATH`] under `repo`.
     pub out: Option<PathBuf>,
     /// Also write the table as a binary image
@@ -314,25 +334,37 @@ pub fn generate(settings: &TablesSettings) -> Result<Generated> {
         .out
         .clone()
         .unwrap_or_else(|| settings.repo.join(GENERATED_PATH));
-    let (model, spec, command, warnings): (Box<dyn PressureModel>, _, _, _) = match &settings.rig {
-        Some((rig_path, sand_path)) => {
-            let (rig, file, warnings) = Rig::read_setup(rig_path)?;
-            let sand = sand::SolverSand::load(sand_path)?;
-            let model = model::pressure_model::SkinSandModel::for_rig(&rig, &file, sand)?;
-            let command = format!(
-                "{DEFAULT_COMMAND} --rig {} --solver-sand {}",
-                rig_path.display(),
-                sand_path.display()
-            );
-            (Box::new(model), TableSpec::for_rig(&rig), command, warnings)
-        }
-        None => (
-            TABLE_SAND.model(&settings.repo)?,
-            TableSpec::default(),
-            DEFAULT_COMMAND.to_owned(),
-            Vec::new(),
-        ),
-    };
+    let chosen = settings
+        .skin_fit
+        .as_ref()
+        .map(skin::SkinFitChoice::read)
+        .transpose()?;
+    let (model, spec, mut command, warnings): (Box<dyn PressureModel>, _, _, _) =
+        match &settings.rig {
+            Some((rig_path, sand_path)) => {
+                let (mut rig, file, mut warnings) = Rig::read_setup(rig_path)?;
+                if let Some(c) = &chosen {
+                    warnings.extend(rig.use_skin_fit(c.clone(), &file));
+                }
+                let sand = sand::SolverSand::load(sand_path)?;
+                let model = model::pressure_model::SkinSandModel::for_rig(&rig, &file, sand)?;
+                let command = format!(
+                    "{DEFAULT_COMMAND} --rig {} --solver-sand {}",
+                    rig_path.display(),
+                    sand_path.display()
+                );
+                (Box::new(model), TableSpec::for_rig(&rig), command, warnings)
+            }
+            None => (
+                TABLE_SAND.model_with_skin(&settings.repo, chosen.as_ref())?,
+                TableSpec::default(),
+                DEFAULT_COMMAND.to_owned(),
+                chosen.iter().flat_map(|c| c.warnings.clone()).collect(),
+            ),
+        };
+    if let Some(choice) = &settings.skin_fit {
+        command = format!("{command} {}", choice.args());
+    }
     let (path, outcome) = regenerate_at(&out, &spec, &*model, settings.check, &command)?;
     if let Some(image) = &settings.image {
         let table = GeneratedTable::sample(&spec, &*model)?;

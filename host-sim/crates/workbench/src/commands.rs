@@ -40,10 +40,24 @@ pub struct Comparison {
     pub spikes: Vec<Spike>,
     /// Files written.
     pub files: Vec<PathBuf>,
+    /// What reading the skin found (`--skin-fit` replacing `[skin]`).
+    pub warnings: Vec<String>,
 }
 
-fn read(dir: &Path) -> Result<Experiment> {
-    Experiment::read(dir)
+/// The experiment folder `dir`, its skin replaced by the law of
+/// `skin_fit` when given ([`rig::Rig::use_skin_fit`]); with the warnings
+/// that gives.
+pub fn read_experiment(
+    dir: &Path,
+    skin_fit: Option<&skin::SkinFitChoice>,
+) -> Result<(Experiment, Vec<String>)> {
+    let mut exp = Experiment::read(dir)?;
+    let mut warnings = Vec::new();
+    if let Some(choice) = skin_fit {
+        let rig_file = dir.join("rig.toml").display().to_string();
+        warnings = exp.rig.use_skin_fit(choice.read()?, &rig_file);
+    }
+    Ok((exp, warnings))
 }
 
 /// The model with `effects` fitted to `exp`; isolated spikes against it
@@ -95,7 +109,13 @@ fn file_safe(id: &str) -> String {
 /// `workbench/compare.json`, one `run-<id>.svg` per run (measured and
 /// model vs time) and `residual-vs-<input>.svg` per input.
 pub fn compare(dir: &Path) -> Result<Comparison> {
-    let exp = read(dir)?;
+    compare_with(dir, None)
+}
+
+/// [`compare`] with the skin of `skin_fit` (`--skin-fit`) instead of the
+/// folder's `[skin]`, when given.
+pub fn compare_with(dir: &Path, skin_fit: Option<&skin::SkinFitChoice>) -> Result<Comparison> {
+    let (exp, warnings) = read_experiment(dir, skin_fit)?;
     let effects = match ModelFile::read(dir)? {
         Some(m) => m.instances()?,
         None => Vec::new(),
@@ -204,6 +224,7 @@ pub fn compare(dir: &Path) -> Result<Comparison> {
         noise_floor_source: source,
         spikes,
         files: files.clone(),
+        warnings,
     };
     let path = out.join("compare.json");
     write_atomic(&path, serde_json::to_string_pretty(&cmp)?.as_bytes())?;
@@ -279,7 +300,29 @@ pub fn diagnose_folder(
     add: Option<&str>,
     options: &DiagnoseOptions,
 ) -> Result<DiagnoseOutcome> {
-    let exp = read(dir)?;
+    diagnose_folder_with(dir, add, None, options).map(|(outcome, _)| outcome)
+}
+
+/// [`diagnose_folder`] with the skin of `skin_fit` (`--skin-fit`) instead
+/// of the folder's `[skin]`, when given; with the warnings that gives. The
+/// ledger does not record the skin: keep one skin per folder's ledger.
+pub fn diagnose_folder_with(
+    dir: &Path,
+    add: Option<&str>,
+    skin_fit: Option<&skin::SkinFitChoice>,
+    options: &DiagnoseOptions,
+) -> Result<(DiagnoseOutcome, Vec<String>)> {
+    let (exp, warnings) = read_experiment(dir, skin_fit)?;
+    let outcome = diagnose_experiment(dir, &exp, add, options)?;
+    Ok((outcome, warnings))
+}
+
+fn diagnose_experiment(
+    dir: &Path,
+    exp: &Experiment,
+    add: Option<&str>,
+    options: &DiagnoseOptions,
+) -> Result<DiagnoseOutcome> {
     let current = ModelFile::read(dir)?.unwrap_or_default();
     let ledger = read_ledger(dir)?;
     if let Some(name) = add {
@@ -301,7 +344,7 @@ pub fn diagnose_folder(
             .max()
             .map_or(current.version, |v| v.max(current.version))
             + 1;
-        return refit_and_record(dir, &exp, effects, version);
+        return refit_and_record(dir, exp, effects, version);
     }
     let recorded = ledger.last().map(|e| e.effects.clone());
     if recorded.as_ref() != Some(&current.effects) {
@@ -310,9 +353,9 @@ pub fn diagnose_folder(
             .map(|e| e.version + 1)
             .max()
             .unwrap_or(current.version);
-        refit_and_record(dir, &exp, current.instances()?, version)?;
+        refit_and_record(dir, exp, current.instances()?, version)?;
     }
-    let d = diagnose(&exp, options)?;
+    let d = diagnose(exp, options)?;
     write_atomic(
         &dir.join(OUTPUT_DIR).join("diagnosis.json"),
         serde_json::to_string_pretty(&d)?.as_bytes(),
@@ -412,7 +455,12 @@ fn residual_text(r: &ResidualReport) -> String {
 impl Comparison {
     /// Human-readable report.
     pub fn text(&self) -> String {
-        let mut s = format!(
+        let mut s: String = self
+            .warnings
+            .iter()
+            .map(|w| format!("warning: {w}\n"))
+            .collect();
+        s += &format!(
             "model: baseline{}\nparameters:\n{}residual (measured − model), noise floor {:.4} kPa ({}):\n{}",
             self.effects.iter().map(|e| format!(" + {e}")).collect::<String>(),
             params_text(&self.params),

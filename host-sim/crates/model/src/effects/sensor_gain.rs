@@ -31,13 +31,13 @@ pub static SPEC: EffectSpec = EffectSpec {
     kind: EffectKind::Physical,
     build: |v| Box::new(SensorGain { gain: value(v, &PARAMS, 0) }),
     not_applicable: |rig| {
-        rig.skin.is_none().then_some(
+        (!rig.skin_known()).then_some(
             "rig.toml gives no [skin]: the skin's fitted scale and the sand's factors absorb a gain",
         )
     },
     indistinct: |rig, v| {
         let gain = value(v, &PARAMS, 0);
-        (rig.skin.is_some() && (gain - 1.0).abs() < SKIN_LAW_SCALE_TOLERANCE).then_some(
+        (rig.skin_known() && (gain - 1.0).abs() < SKIN_LAW_SCALE_TOLERANCE).then_some(
             "closer to 1 than the scale of rig.toml's [skin] law is known in the inflated tube: not told apart from that law being off",
         )
     },
