@@ -389,6 +389,20 @@ impl Rig {
         }
     }
 
+    /// The skin in use, in one line, for records such as the workbench's
+    /// ledger: the `--skin-fit` law and its source, the `[skin]` law, or
+    /// the default skin with its scale fitted.
+    pub fn skin_description(&self) -> String {
+        match (&self.skin_fit, &self.skin) {
+            (Some(fit), _) => format!("{} ({}, --skin-fit)", fit.law.describe(), fit.source),
+            (None, Some(s)) => format!("[skin] {}", skin::SkinLaw::from(s.yeoh()).describe()),
+            (None, None) => format!(
+                "the default skin, {}, its scale fitted",
+                skin::SkinLaw::from(skin::default_skin()).describe()
+            ),
+        }
+    }
+
     /// Whether the skin's law is known (`--skin-fit` or `[skin]`): its
     /// stiffness is then used as measured, not fitted.
     pub fn skin_known(&self) -> bool {

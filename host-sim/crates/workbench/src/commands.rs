@@ -281,6 +281,7 @@ fn refit_and_record(
             free_params: fit.k(),
             noise_floor_kpa: noise,
             unix_time_s: now_s(),
+            skin: exp.rig.skin_description(),
         },
     )?;
     Ok(DiagnoseOutcome::Added {
@@ -305,14 +306,25 @@ pub fn diagnose_folder(
 
 /// [`diagnose_folder`] with the skin of `skin_fit` (`--skin-fit`) instead
 /// of the folder's `[skin]`, when given; with the warnings that gives. The
-/// ledger does not record the skin: keep one skin per folder's ledger.
+/// ledger records each version's skin; a skin other than its last
+/// entry's is warned of (versions fitted with different skins do not
+/// compare).
 pub fn diagnose_folder_with(
     dir: &Path,
     add: Option<&str>,
     skin_fit: Option<&skin::SkinFitChoice>,
     options: &DiagnoseOptions,
 ) -> Result<(DiagnoseOutcome, Vec<String>)> {
-    let (exp, warnings) = read_experiment(dir, skin_fit)?;
+    let (exp, mut warnings) = read_experiment(dir, skin_fit)?;
+    let skin = exp.rig.skin_description();
+    if let Some(last) = read_ledger(dir)?.last() {
+        if !last.skin.is_empty() && last.skin != skin {
+            warnings.push(format!(
+                "the ledger's version {} was fitted with {}; this one uses {}: their errors do not compare",
+                last.version, last.skin, skin
+            ));
+        }
+    }
     let outcome = diagnose_experiment(dir, &exp, add, options)?;
     Ok((outcome, warnings))
 }
@@ -569,7 +581,14 @@ impl DiagnoseOutcome {
 /// The ledger as a table.
 pub fn ledger_text(entries: &[LedgerEntry]) -> String {
     let mut s = "version  rmse_kpa  noise_kpa  free  bic          effects\n".to_owned();
+    let mut skin: Option<&str> = None;
     for e in entries {
+        // The skin, where it is recorded, above the first version that
+        // used it.
+        if !e.skin.is_empty() && skin != Some(e.skin.as_str()) {
+            s += &format!("skin: {}\n", e.skin);
+            skin = Some(e.skin.as_str());
+        }
         s += &format!(
             "{:>7}  {:>8.4}  {:>9.4}  {:>4}  {:>11.1}  {}\n",
             e.version,

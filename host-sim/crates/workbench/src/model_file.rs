@@ -120,6 +120,10 @@ pub struct LedgerEntry {
     pub noise_floor_kpa: f64,
     /// Seconds since the Unix epoch.
     pub unix_time_s: u64,
+    /// The skin the model was fitted with ([`rig::Rig::skin_description`]);
+    /// empty in ledgers written before it was recorded.
+    #[serde(default)]
+    pub skin: String,
 }
 
 /// Reads `dir/ledger.json` (empty when absent).

@@ -7,7 +7,7 @@
 use skin::coupon::{CouponTest, Mode};
 use skin::report::{write_report, FitSkinReport};
 use skin::{Gent, SkinFitChoice, StrainEnergy};
-use workbench::commands::{compare, compare_with};
+use workbench::commands::{compare, compare_with, diagnose_folder_with};
 use workbench::synth::case;
 
 /// The truth: a Gent skin with a strong lock, so its tube curve is not a
@@ -86,4 +86,21 @@ fn a_gent_skin_from_a_fit_report_lets_the_baseline_fit_to_the_noise() {
         with.warnings
     );
     assert!(with.text().starts_with("warning: "));
+
+    // The ledger records each version's skin, and a change of skin is
+    // warned of: errors under different skins do not compare.
+    let opts = workbench::diagnose::DiagnoseOptions::default();
+    let (_, first) = diagnose_folder_with(&exp_dir, Some("leak"), None, &opts).unwrap();
+    assert!(first.is_empty(), "{first:?}");
+    let (_, second) =
+        diagnose_folder_with(&exp_dir, Some("line_loss"), Some(&choice), &opts).unwrap();
+    assert!(
+        second
+            .iter()
+            .any(|w| w.contains("was fitted with [skin] Yeoh") && w.contains("Gent mu_kpa")),
+        "{second:?}"
+    );
+    let (entries, _) = workbench::commands::ledger(&exp_dir).unwrap();
+    let skins: Vec<bool> = entries.iter().map(|e| e.skin.contains("Gent")).collect();
+    assert_eq!(skins, [false, true]);
 }

@@ -285,6 +285,11 @@ fn the_loop_add_an_effect_and_watch_the_error_fall() {
     assert_eq!((entries[0].version, entries[1].version), (0, 1));
     assert!(entries[0].effects.is_empty());
     assert_eq!(entries[1].effects, vec!["line_loss".to_owned()]);
+    // Each version records the skin it was fitted with.
+    let skin = exp.rig.skin_description();
+    assert!(skin.contains("Yeoh"), "{skin}");
+    assert!(entries.iter().all(|e| e.skin == skin));
+    assert!(workbench::commands::ledger_text(&entries).contains(&format!("skin: {skin}\n")));
     assert!(entries[1].rmse_kpa < 0.5 * entries[0].rmse_kpa);
     assert!(entries[1].rmse_kpa <= 1.5 * 0.03);
     assert!(svg.exists());
