@@ -194,9 +194,8 @@ pub fn write_estimate(
     let a_end = problem.radius_m[1] / problem.radius_m[0];
     let large = t.large_strain(a_end * 1.001, 2e-4, 100);
     let small = t.small_strain_curve(a_end * 1.001, 2000);
-    let at = |curve: &[theory::TheoryPoint], d_mm: f64| {
-        theory::CavityTheory::pressure_at(curve, d_mm / dem.d0_mm).unwrap_or(f64::NAN)
-    };
+    // Each theory sampled at the DEM's windows, once: the plot's curves,
+    // and the table's rows at every 10 %.
     let as_curve = |curve: &[theory::TheoryPoint]| Curve {
         at_rest_kpa: p0,
         d0_mm: dem.d0_mm,
@@ -206,20 +205,16 @@ pub fn write_estimate(
             .map(|w| Window {
                 end_step: 0,
                 d_mm: w.d_mm,
-                pe_kpa: at(curve, w.d_mm),
+                pe_kpa: theory::CavityTheory::pressure_at(curve, w.d_mm / dem.d0_mm)
+                    .unwrap_or(f64::NAN),
             })
             .collect(),
     };
+    let (l, s) = (as_curve(&large), as_curve(&small));
     let mut rows = vec![[0.0, dem.d0_mm, p0, p0, p0]];
     for p in (10..=100).step_by(10) {
-        let w = dem.expansion[p - 1];
-        rows.push([
-            p as f64,
-            w.d_mm,
-            w.pe_kpa,
-            at(&large, w.d_mm),
-            at(&small, w.d_mm),
-        ]);
+        let (w, lw, sw) = (dem.expansion[p - 1], l.expansion[p - 1], s.expansion[p - 1]);
+        rows.push([p as f64, w.d_mm, w.pe_kpa, lw.pe_kpa, sw.pe_kpa]);
     }
     std::fs::create_dir_all(dir)?;
     let mut csv = String::from("percent,d_mm,dem_kpa,large_strain_kpa,small_strain_kpa\n");
@@ -233,7 +228,6 @@ pub fn write_estimate(
         input.dilatancy_deg,
         t.rigidity_index()
     );
-    let (l, s) = (as_curve(&large), as_curve(&small));
     datafile::write_atomic(
         &dir.join("theory.svg"),
         curve::plot_svg(

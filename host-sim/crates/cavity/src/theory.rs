@@ -215,18 +215,7 @@ impl CavityTheory {
                 let sigma = py * (c / r).powf(alpha);
                 (-k * alpha * sigma * (1.0 / c - v / r) - v / r) / np
             };
-            let n = n_r.max(1);
-            let h = (a - c) / n as f64;
-            let (mut r, mut v) = (c, vc);
-            for _ in 0..n {
-                let k1 = f(r, v);
-                let k2 = f(r + 0.5 * h, v + 0.5 * h * k1);
-                let k3 = f(r + 0.5 * h, v + 0.5 * h * k2);
-                let k4 = f(r + h, v + h * k3);
-                v += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-                r += h;
-            }
-            v
+            rk4(f, c, a, vc, n_r)
         };
         while a < a_end {
             let dc = dc_rel * c;
@@ -256,6 +245,23 @@ impl CavityTheory {
         let t = (a - p.radius_ratio) / (q.radius_ratio - p.radius_ratio).max(1e-300);
         Some(p.pressure_kpa + t * (q.pressure_kpa - p.pressure_kpa))
     }
+}
+
+/// v(`to`) of dv/dr = `f`(r, v) from v(`from`) = `v0`, in `steps` (≥ 1)
+/// classical Runge–Kutta steps.
+fn rk4(f: impl Fn(f64, f64) -> f64, from: f64, to: f64, v0: f64, steps: usize) -> f64 {
+    let n = steps.max(1);
+    let h = (to - from) / n as f64;
+    let (mut r, mut v) = (from, v0);
+    for _ in 0..n {
+        let k1 = f(r, v);
+        let k2 = f(r + 0.5 * h, v + 0.5 * h * k1);
+        let k3 = f(r + 0.5 * h, v + 0.5 * h * k2);
+        let k4 = f(r + h, v + h * k3);
+        v += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+        r += h;
+    }
+    v
 }
 
 /// Shear modulus (kPa) of a random packing of Hertz–Mindlin spheres under
@@ -321,17 +327,7 @@ mod tests {
                 - t.small_strain(rho - h).radius_ratio)
                 / (2.0 * h);
             let f = |r: f64, v: f64| (-k * alpha * py * (rho / r).powf(alpha) / rho - v / r) / np;
-            let n = 4000;
-            let step = (1.0 - rho) / n as f64;
-            let (mut r, mut v) = (rho, vc);
-            for _ in 0..n {
-                let k1 = f(r, v);
-                let k2 = f(r + 0.5 * step, v + 0.5 * step * k1);
-                let k3 = f(r + 0.5 * step, v + 0.5 * step * k2);
-                let k4 = f(r + step, v + step * k3);
-                v += step / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-                r += step;
-            }
+            let v = rk4(f, rho, 1.0, vc, 4000);
             assert!(
                 (closed - v).abs() <= 1e-7 * v.abs().max(1e-12),
                 "ρ {rho}: closed form {closed} against integrated {v}"
