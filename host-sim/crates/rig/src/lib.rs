@@ -393,13 +393,11 @@ impl Rig {
     /// ledger: the `--skin-fit` law and its source, the `[skin]` law, or
     /// the default skin with its scale fitted.
     pub fn skin_description(&self) -> String {
+        let law = self.skin_law().describe();
         match (&self.skin_fit, &self.skin) {
-            (Some(fit), _) => format!("{} ({}, --skin-fit)", fit.law.describe(), fit.source),
-            (None, Some(s)) => format!("[skin] {}", skin::SkinLaw::from(s.yeoh()).describe()),
-            (None, None) => format!(
-                "the default skin, {}, its scale fitted",
-                skin::SkinLaw::from(skin::default_skin()).describe()
-            ),
+            (Some(fit), _) => format!("{law} ({}, --skin-fit)", fit.source),
+            (None, Some(_)) => format!("[skin] {law}"),
+            (None, None) => format!("the default skin, {law}, its scale fitted"),
         }
     }
 

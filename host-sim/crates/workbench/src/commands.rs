@@ -317,7 +317,8 @@ pub fn diagnose_folder_with(
 ) -> Result<(DiagnoseOutcome, Vec<String>)> {
     let (exp, mut warnings) = read_experiment(dir, skin_fit)?;
     let skin = exp.rig.skin_description();
-    if let Some(last) = read_ledger(dir)?.last() {
+    let ledger = read_ledger(dir)?;
+    if let Some(last) = ledger.last() {
         if !last.skin.is_empty() && last.skin != skin {
             warnings.push(format!(
                 "the ledger's version {} was fitted with {}; this one uses {}: their errors do not compare",
@@ -325,18 +326,19 @@ pub fn diagnose_folder_with(
             ));
         }
     }
-    let outcome = diagnose_experiment(dir, &exp, add, options)?;
+    let outcome = diagnose_experiment(dir, &exp, &ledger, add, options)?;
     Ok((outcome, warnings))
 }
 
+/// The diagnosis of `exp` in `dir`, whose ledger reads `ledger`.
 fn diagnose_experiment(
     dir: &Path,
     exp: &Experiment,
+    ledger: &[LedgerEntry],
     add: Option<&str>,
     options: &DiagnoseOptions,
 ) -> Result<DiagnoseOutcome> {
     let current = ModelFile::read(dir)?.unwrap_or_default();
-    let ledger = read_ledger(dir)?;
     if let Some(name) = add {
         let mut file = current.clone();
         anyhow::ensure!(
