@@ -60,6 +60,15 @@ impl Direction {
             None
         }
     }
+
+    /// Microsteps one step in this direction adds to the position: +1
+    /// injecting, −1 withdrawing (the sign convention above).
+    pub const fn steps(self) -> i32 {
+        match self {
+            Direction::Inject => 1,
+            Direction::Withdraw => -1,
+        }
+    }
 }
 
 /// The pins, by role (named so STEP and DIR cannot be swapped silently).
@@ -270,10 +279,7 @@ where
             .set_state(dir_high.into())
             .map_err(|_| PumpError::Pin(PinRole::Dir))?;
         self.run_base_steps = self.position_steps;
-        self.run_sign = match direction {
-            Direction::Inject => 1,
-            Direction::Withdraw => -1,
-        };
+        self.run_sign = direction.steps();
         self.pins.step.start(first_us, second_us);
         Ok(())
     }

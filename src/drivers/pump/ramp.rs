@@ -83,10 +83,7 @@ impl StepPlanner {
             Some(d) => d,
             None => return Plan::Idle,
         };
-        let sign = match direction {
-            Direction::Inject => 1.0,
-            Direction::Withdraw => -1.0,
-        };
+        let sign = direction.steps() as f32;
         let speed = libm::fabsf(v);
         // Speed to head for, along the current direction: 0 on a reversal.
         let aim = if target * sign > 0.0 {

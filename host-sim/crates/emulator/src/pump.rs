@@ -80,11 +80,8 @@ impl StepperPump {
     /// (pulses completed, [`StepperPump::reported_volume_ml`]) has it.
     pub fn counted_steps(&self) -> i32 {
         let high = i32::from(self.timer.step_high());
-        let sign = match self.direction {
-            Direction::Inject => 1,
-            Direction::Withdraw => -1,
-        };
-        self.counted_steps.saturating_add(sign * high)
+        self.counted_steps
+            .saturating_add(self.direction.steps() * high)
     }
 
     /// Water in the barrel (mL), 0 (empty) to the stroke (full).
@@ -181,11 +178,9 @@ impl StepperPump {
     fn sync_count(&mut self) -> u32 {
         let pulses = self.timer.pulses();
         let moved = i32::try_from(pulses).unwrap_or(i32::MAX);
-        let sign = match self.direction {
-            Direction::Inject => 1,
-            Direction::Withdraw => -1,
-        };
-        self.counted_steps = self.run_base_steps.saturating_add(sign * moved);
+        self.counted_steps = self
+            .run_base_steps
+            .saturating_add(self.direction.steps() * moved);
         pulses
     }
 
@@ -196,26 +191,27 @@ impl StepperPump {
         if !self.move_plunger(direction) {
             return false;
         }
-        self.counted_steps = self.counted_steps.saturating_add(match direction {
-            Direction::Inject => 1,
-            Direction::Withdraw => -1,
-        });
+        self.counted_steps = self.counted_steps.saturating_add(direction.steps());
         true
+    }
+
+    /// Whether the end-stop that `direction` moves towards is closed.
+    fn blocked_ahead(&self, direction: Direction) -> bool {
+        let stops = self.end_stops();
+        match direction {
+            Direction::Inject => stops.empty,
+            Direction::Withdraw => stops.full,
+        }
     }
 
     /// The plunger one microstep in `direction`, unless the end-stop ahead
     /// is closed (false) or the motor is stalled (true, no motion).
     fn move_plunger(&mut self, direction: Direction) -> bool {
-        let stops = self.end_stops();
-        let (blocked, sign) = match direction {
-            Direction::Inject => (stops.empty, 1.0),
-            Direction::Withdraw => (stops.full, -1.0),
-        };
-        if blocked {
+        if self.blocked_ahead(direction) {
             return false;
         }
         if !self.stalled {
-            let ml = sign * f64::from(self.config.ml_per_step());
+            let ml = f64::from(direction.steps()) * f64::from(self.config.ml_per_step());
             self.displaced_ml += ml;
             self.barrel_ml = (self.barrel_ml - ml).clamp(0.0, f64::from(self.config.stroke_ml));
         }
@@ -233,12 +229,7 @@ impl StepDrive for StepperPump {
     }
 
     fn check_ahead(&mut self, direction: Direction) -> Result<(), PumpError> {
-        let stops = self.end_stops();
-        let blocked = match direction {
-            Direction::Inject => stops.empty,
-            Direction::Withdraw => stops.full,
-        };
-        if blocked {
+        if self.blocked_ahead(direction) {
             Err(PumpError::EndStop)
         } else {
             Ok(())
