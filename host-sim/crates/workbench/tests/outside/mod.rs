@@ -34,21 +34,6 @@ fn box_hydraulic_radius_mm() -> f64 {
 /// The volume every cycle pumps (mL).
 const FILL_ML: f64 = 5.0;
 
-/// The error function (Abramowitz & Stegun 7.1.26, |error| < 1.5e-7).
-fn erf(x: f64) -> f64 {
-    let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
-    let poly = t
-        * (0.254_829_592
-            + t * (-0.284_496_736
-                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
-    let y = 1.0 - poly * (-x * x).exp();
-    if x >= 0.0 {
-        y
-    } else {
-        -y
-    }
-}
-
 /// The hidden effects this truth knows.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Hidden {
@@ -115,7 +100,7 @@ impl Hidden {
                 for k in 0..=200 {
                     let x = k as f64 / 200.0;
                     let d = truth.d0_mm + x * (d_max - truth.d0_mm);
-                    let softening = inv_r * erf((w(d_max) - w(d)) / m);
+                    let softening = inv_r * libm::erf((w(d_max) - w(d)) / m);
                     num += softening * (1.0 - x);
                     den += (1.0 - x) * (1.0 - x);
                 }
@@ -271,7 +256,7 @@ impl Truth {
         for h in &self.hidden {
             match *h {
                 Hidden::Mullins(inv_r, m) => {
-                    p *= 1.0 - inv_r * erf((next.w_max - w).max(0.0) / m);
+                    p *= 1.0 - inv_r * libm::erf((next.w_max - w).max(0.0) / m);
                 }
                 Hidden::SkinViscoelastic(g, tau) => {
                     // Midpoint rule on dq/dt = g·dp_el/dt − q/τ: the
@@ -406,11 +391,7 @@ impl Truth {
             let mut lost = 0.0f64;
             // The lag's last input and output.
             let mut lagged: Option<(f64, f64)> = None;
-            let mut skin = SkinMemory {
-                w_max: 0.0,
-                elastic_kpa: 0.0,
-                overstress_kpa: 0.0,
-            };
+            let mut skin = SkinMemory::default();
             let mut peak;
             let (mut prev_v, mut prev_t) = (0.0, -dt);
             let phase = 0.7 * k as f64;
