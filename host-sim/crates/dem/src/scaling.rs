@@ -48,7 +48,16 @@ pub struct ScalingRow {
     /// The process' peak resident memory after this size, per particle
     /// (bytes; Linux's VmHWM), when the system says.
     pub peak_bytes_per_particle: Option<f64>,
+    /// Time of the closing half kick alone, per particle (ns): a pass
+    /// with no neighbours that only streams the particles' arrays, so its
+    /// growth with N is the memory system's, not the contact search's.
+    pub kick_ns_per_particle: f64,
 }
+
+/// Bytes the closing half kick moves per particle: it reads velocity,
+/// spin, force, torque (4 × 24 B) and the two inverse inertias (2 × 8 B)
+/// and writes velocity and spin back (2 × 24 B).
+pub const KICK_BYTES_PER_PARTICLE: f64 = 160.0;
 
 /// The benchmark's parameters with the box periodic across, `tiles`
 /// boxes wide along x and y: its side walls gone, the floor kept.
@@ -149,12 +158,21 @@ pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<Scaling
                 }
                 Ok((t0.elapsed().as_secs_f64(), state.mean_contacts()))
             })?;
+            let kick_s = pool.install(|| {
+                let mut p = state.particles.clone();
+                let t0 = Instant::now();
+                for _ in 0..opts.steps {
+                    dem::integrate::kick(&mut p, params.dt_s);
+                }
+                t0.elapsed().as_secs_f64()
+            });
             rows.push(ScalingRow {
                 particles: n,
                 workers: w,
                 particle_steps_per_s: n as f64 * opts.steps as f64 / wall_s,
                 mean_contacts: contacts,
                 peak_bytes_per_particle: peak_rss_bytes().map(|b| b / n as f64),
+                kick_ns_per_particle: kick_s * 1e9 / (n as f64 * opts.steps as f64),
             });
         }
     }
@@ -167,7 +185,7 @@ pub fn table(rows: &[ScalingRow]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "particles  workers  M particle-steps/s  ns per particle-step  vs smallest  contacts  peak B/particle"
+        "particles  workers  M particle-steps/s  ns per particle-step  vs smallest  contacts  peak B/particle  kick ns/particle  kick GB/s"
     );
     for r in rows {
         let first = rows
@@ -176,7 +194,7 @@ pub fn table(rows: &[ScalingRow]) -> String {
             .map_or(r.particle_steps_per_s, |x| x.particle_steps_per_s);
         let _ = writeln!(
             s,
-            "{:>9}  {:>7}  {:>18.2}  {:>20.1}  {:>10.2}×  {:>8.3}  {:>15}",
+            "{:>9}  {:>7}  {:>18.2}  {:>20.1}  {:>10.2}×  {:>8.3}  {:>15}  {:>16.2}  {:>9.1}",
             r.particles,
             r.workers,
             r.particle_steps_per_s / 1e6,
@@ -184,7 +202,9 @@ pub fn table(rows: &[ScalingRow]) -> String {
             first / r.particle_steps_per_s,
             r.mean_contacts,
             r.peak_bytes_per_particle
-                .map_or("-".to_string(), |b| format!("{b:.0}"))
+                .map_or("-".to_string(), |b| format!("{b:.0}")),
+            r.kick_ns_per_particle,
+            KICK_BYTES_PER_PARTICLE / r.kick_ns_per_particle
         );
     }
     s
