@@ -218,7 +218,7 @@ impl Report {
                 scenario::HeadSupport::Free => ", the head then free".to_string(),
                 _ => self
                     .spec
-                    .head_draw(f.outer_diameter_m, self.spec.zone_length_m())
+                    .expansion_head_draw()
                     .map_or_else(String::new, |d| {
                         format!(
                             ", the head then drawn back with the swelling, {:.2} mm by D = {:.2} mm",
