@@ -24,6 +24,7 @@ pub mod scenario;
 pub mod settings;
 pub mod solver_sand;
 pub mod stats;
+pub mod validate;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
