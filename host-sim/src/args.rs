@@ -77,7 +77,7 @@ pub enum Command {
     /// averages of the same problem beside ours in comparison.csv.
     Cavity(CavityArgs),
     /// Gather the parts of an ensemble run split with --shard I/N (simulate
-    /// --seeds, balloon, solver-sand) into one folder and aggregate them:
+    /// --seeds, balloon, solver-sand, validate) into one folder and aggregate them:
     /// the same result files, bit for bit, as the run on one machine
     /// (only the timing files differ).
     Merge {
@@ -652,7 +652,7 @@ pub struct SolverSandArgs {
 #[derive(Args)]
 pub struct ValidateArgs {
     /// Folder for the runs and the table.
-    #[arg(long)]
+    #[arg(long, default_value = "out/validate")]
     pub out: PathBuf,
     /// Beds per case (seeds 1, 2, …).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
