@@ -535,6 +535,16 @@ pub struct BalloonArgs {
     /// rig's [skin] (the balloon's free pressure then scales it).
     #[command(flatten)]
     pub skin: SkinFitArgs,
+    /// The box's floor below the axis (mm); the settling time follows.
+    #[arg(long = "below-mm")]
+    pub below_mm: Option<f64>,
+    /// The box's width (mm).
+    #[arg(long = "box-width-mm")]
+    pub box_width_mm: Option<f64>,
+    /// Nominal duration of the expansion (s): twice the default halves
+    /// the injection rate.
+    #[arg(long = "expansion-s")]
+    pub expansion_s: Option<f64>,
     /// Folder for the results.
     #[arg(long, default_value = "out/balloon")]
     pub out: PathBuf,

@@ -289,6 +289,9 @@ fn balloon(a: args::BalloonArgs, part: Part, argv: Vec<String>) -> Result<()> {
         rig,
         out: Some(a.out.clone()),
         progress: true,
+        below_m: a.below_mm.map(|v| v * 1e-3),
+        box_width_m: a.box_width_mm.map(|v| v * 1e-3),
+        expansion_s: a.expansion_s,
         ..BalloonOptions::paper(a.seeds)
     };
     if let Some(&h) = opts.depths_m.first() {
