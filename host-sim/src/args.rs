@@ -58,6 +58,13 @@ pub enum Command {
     /// runs `simulate` at each depth (default grain radius, no VTK), bins the
     /// sand's share of p_i over D and writes host-sim/data/sand/solver-pe.csv.
     SolverSand(SolverSandArgs),
+    /// Regenerate the solver's validation table: the scenario at 40, 50,
+    /// 70 and 100 mm and the balloon at its four depths over --seeds beds,
+    /// each figure marked fitted, matched, imposed or predicted beside what
+    /// it is compared with. Writes validation.json, validation.csv and
+    /// validation.md (the docs' rows) into --out. Splits with --shard I/N
+    /// and `merge`, as the ensembles do.
+    Validate(ValidateArgs),
     /// Element tests of the DEM sand: drained triaxial compression (φ_peak,
     /// φ_cv, ψ) and the K0 oedometer test of the scenario's grains, over
     /// grain radii and seeds. Writes summary.json, summary.txt,
@@ -70,7 +77,7 @@ pub enum Command {
     /// averages of the same problem beside ours in comparison.csv.
     Cavity(CavityArgs),
     /// Gather the parts of an ensemble run split with --shard I/N (simulate
-    /// --seeds, balloon, solver-sand) into one folder and aggregate them:
+    /// --seeds, balloon, solver-sand, validate) into one folder and aggregate them:
     /// the same result files, bit for bit, as the run on one machine
     /// (only the timing files differ).
     Merge {
@@ -528,6 +535,16 @@ pub struct BalloonArgs {
     /// rig's [skin] (the balloon's free pressure then scales it).
     #[command(flatten)]
     pub skin: SkinFitArgs,
+    /// The box's floor below the axis (mm); the settling time follows.
+    #[arg(long = "below-mm")]
+    pub below_mm: Option<f64>,
+    /// The box's width (mm).
+    #[arg(long = "box-width-mm")]
+    pub box_width_mm: Option<f64>,
+    /// Nominal duration of the expansion (s): twice the default halves
+    /// the injection rate.
+    #[arg(long = "expansion-s")]
+    pub expansion_s: Option<f64>,
     /// Folder for the results.
     #[arg(long, default_value = "out/balloon")]
     pub out: PathBuf,
@@ -638,6 +655,25 @@ pub struct SolverSandArgs {
     /// (needed), without the data file; `host-sim merge` gathers the parts
     /// and writes it into the merged folder.
     #[arg(long, requires = "runs_out")]
+    pub shard: Option<shard::Shard>,
+}
+
+/// `host-sim validate` arguments.
+#[derive(Args)]
+pub struct ValidateArgs {
+    /// Folder for the runs and the table.
+    #[arg(long, default_value = "out/validate")]
+    pub out: PathBuf,
+    /// Beds per case (seeds 1, 2, …).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub seeds: u64,
+    /// Only the reduced case CI pins (the scenario at 40 mm on a small,
+    /// coarse bed; seconds a run).
+    #[arg(long)]
+    pub reduced: bool,
+    /// Run only part I of N of the cases into --out; `host-sim merge`
+    /// gathers the parts and writes the table into the merged folder.
+    #[arg(long)]
     pub shard: Option<shard::Shard>,
 }
 

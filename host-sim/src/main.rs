@@ -55,6 +55,10 @@ fn run(cli: Cli, argv: Vec<String>) -> Result<()> {
             let part = shard_part(a.shard);
             sand_test(a, part, part_command(&argv, &["--out"]))
         }
+        Command::Validate(a) => {
+            let part = shard_part(a.shard);
+            validate(a, part, part_command(&argv, &["--out"]))
+        }
         Command::Cavity(a) => cavity(a),
         Command::Bench {
             what:
@@ -246,6 +250,10 @@ fn merge(out: &std::path::Path, parts: &[PathBuf]) -> Result<()> {
             a.out = out.to_path_buf();
             sand_test(a, Part::Merge, command)
         }
+        Command::Validate(mut a) => {
+            a.out = out.to_path_buf();
+            validate(a, Part::Merge, command)
+        }
         Command::SolverSand(mut a) => {
             // The data file beside the runs, under the repository's name.
             let name = std::path::Path::new(sand::solver::DATA_PATH)
@@ -281,6 +289,9 @@ fn balloon(a: args::BalloonArgs, part: Part, argv: Vec<String>) -> Result<()> {
         rig,
         out: Some(a.out.clone()),
         progress: true,
+        below_m: a.below_mm.map(|v| v * 1e-3),
+        box_width_m: a.box_width_mm.map(|v| v * 1e-3),
+        expansion_s: a.expansion_s,
         ..BalloonOptions::paper(a.seeds)
     };
     if let Some(&h) = opts.depths_m.first() {
@@ -291,6 +302,22 @@ fn balloon(a: args::BalloonArgs, part: Part, argv: Vec<String>) -> Result<()> {
     finish(runner.finish()?, done, |run| {
         print!("{}", run.text());
         println!("wrote {}", a.out.display());
+    })
+}
+
+fn validate(a: args::ValidateArgs, part: Part, argv: Vec<String>) -> Result<()> {
+    use burrow::validate::{run_part, ValidateOptions};
+    let opts = ValidateOptions {
+        reduced: a.reduced,
+        seeds: a.seeds,
+        out: a.out.clone(),
+        progress: true,
+    };
+    let runner = Runner::new(part, Some(&a.out), argv)?;
+    let done = run_part(&opts, &runner)?;
+    finish(runner.finish()?, done, |v| {
+        print!("{}", v.markdown());
+        println!("wrote {}", a.out.join("validation.md").display());
     })
 }
 

@@ -60,6 +60,12 @@ pub struct BalloonOptions {
     pub out: Option<PathBuf>,
     /// Show progress bars.
     pub progress: bool,
+    /// The box's floor below the axis (m); `None`: the case's.
+    pub below_m: Option<f64>,
+    /// The box's width (m); `None`: the case's.
+    pub box_width_m: Option<f64>,
+    /// Nominal duration of the expansion (s); `None`: the case's.
+    pub expansion_s: Option<f64>,
 }
 
 impl BalloonOptions {
@@ -75,6 +81,9 @@ impl BalloonOptions {
             rig: None,
             out: None,
             progress: false,
+            below_m: None,
+            box_width_m: None,
+            expansion_s: None,
         }
     }
 
@@ -95,6 +104,16 @@ impl BalloonOptions {
             )?,
             None => (base, Vec::new()),
         };
+        let mut spec = match self.below_m {
+            Some(below) => spec.with_floor_below(below),
+            None => spec,
+        };
+        if let Some(w) = self.box_width_m {
+            spec.box_width_m = w;
+        }
+        if let Some(t) = self.expansion_s {
+            spec.expansion_s = t;
+        }
         Ok((spec.as_balloon(), notes))
     }
 }

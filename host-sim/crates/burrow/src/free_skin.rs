@@ -1,9 +1,17 @@
 //! The zone's own pressure–diameter curve with no sand around it, from the
-//! same FEM skin (head held in place): what the balloon experiment
-//! subtracts as its h = 0 run. The sand's share of the internal pressure,
-//! Δp_i = p_i − p_free(D), is the quantity the experiment's p_e measures;
-//! the contact pressure averaged over the whole skin (`Sample`'s p_e) is
-//! another, smaller one (it counts the end regions that barely move).
+//! same FEM skin with the same ends and head kinematics as the run it is
+//! subtracted from: the back ring on the body, the front ring on the head,
+//! the head drawn back by the run's law of D
+//! ([`ScenarioSpec::expansion_head_draw`]) or held. What the balloon
+//! experiment subtracts as its h = 0 run. The sand's share of the internal
+//! pressure, Δp_i = p_i − p_free(D), is the quantity the experiment's p_e
+//! measures; the contact pressure averaged over the whole skin (`Sample`'s
+//! p_e) is another, smaller one (it counts the end regions that barely
+//! move).
+//!
+//! A free head ([`crate::HeadSupport::Free`]) has no law of D: its
+//! reference holds the head where it is (the run's head moves under the
+//! sand on its face, which a sand-free reference cannot reproduce).
 
 use anyhow::{ensure, Result};
 
@@ -20,19 +28,46 @@ const STEP_PA: f64 = 100.0;
 /// on the paper's wall.
 const TOLERANCE: f64 = 0.013;
 
+/// Passes of relaxation and head placement per pressure step at most: the
+/// head's place depends on the D it yields; D_r moves by ≪ 1 µm after the
+/// second pass on the paper's zone.
+const HEAD_PASSES: usize = 4;
+/// Head placement converged: D_r changed by less than this (m).
+const HEAD_TOLERANCE_M: f64 = 1e-8;
+
 /// p_free(D) of the scenario's zone, sampled by quasi-static relaxation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FreeCurve {
     /// (outer diameter at mid-length (m), internal pressure (Pa)), D
     /// increasing.
     points: Vec<(f64, f64)>,
+    /// How far the head was drawn back at each point, D_r (m).
+    receding_m: Vec<f64>,
+}
+
+/// Puts `skin`'s head, and its ring, `receding_m` (m) behind rest (a
+/// skin with [`Ends::Head`]): the ring is held in [`fem::Skin::relax`],
+/// so this is where it stays.
+pub fn place_head(skin: &mut fem::Skin<skin::SkinLaw>, receding_m: f64) {
+    let front = skin.mesh.along;
+    let ring: Vec<usize> = skin.ring_nodes(front).collect();
+    for a in ring {
+        skin.position_m[a].z = skin.rest_m[a].z - receding_m;
+    }
+    if let Some(head) = &mut skin.head {
+        head.displacement_m = -receding_m;
+    }
 }
 
 impl FreeCurve {
-    /// The curve of `spec`'s skin from rest to past its final diameter.
+    /// The curve of `spec`'s skin from rest to past its final diameter,
+    /// with the run's ends ([`Ends::Head`]: the head's ring held by the
+    /// head) and the run's head draw ([`ScenarioSpec::expansion_head_draw`]).
     pub fn of(spec: &ScenarioSpec) -> Result<FreeCurve> {
-        let mut skin = spec.skin(Ends::Clamped)?;
+        let draw = spec.expansion_head_draw();
+        let mut skin = spec.skin(Ends::Head)?;
         let mut points = vec![(skin.outer_diameter_at_mid_length_m(), 0.0)];
+        let mut receding_m = vec![0.0];
         let mut previous: Option<Vec<nalgebra::Vector3<f64>>> = None;
         let tolerance_n =
             TOLERANCE * STEP_PA * skin.outer_area_m2()? / skin.mesh.rest_m.len() as f64;
@@ -57,15 +92,41 @@ impl FreeCurve {
                 }
             }
             previous = Some(here);
-            skin.relax(tolerance_n, 400_000)?;
-            let d = skin.outer_diameter_at_mid_length_m();
+            // The head where the law puts it for the D this step yields:
+            // a fixed point, started from the extrapolated state's D.
+            let mut d_r = draw.map_or(0.0, |law| {
+                law.receding_at_m(skin.outer_diameter_at_mid_length_m())
+            });
+            let mut d = f64::NAN;
+            for _ in 0..HEAD_PASSES {
+                place_head(&mut skin, d_r);
+                skin.relax(tolerance_n, 400_000)?;
+                d = skin.outer_diameter_at_mid_length_m();
+                let Some(law) = draw else { break };
+                let want = law.receding_at_m(d);
+                let moved = (want - d_r).abs();
+                d_r = want;
+                if moved < HEAD_TOLERANCE_M {
+                    break;
+                }
+            }
             ensure!(
                 points.last().is_some_and(|q| d > q.0),
                 "the free skin's diameter stopped growing at {p} Pa (a limit point)"
             );
             points.push((d, p));
+            receding_m.push(skin.head.map_or(0.0, |h| -h.displacement_m));
         }
-        Ok(FreeCurve { points })
+        Ok(FreeCurve { points, receding_m })
+    }
+
+    /// The relaxed states: (outer diameter at mid-length (m), internal
+    /// pressure (Pa), head drawn back D_r (m)), D increasing.
+    pub fn states(&self) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+        self.points
+            .iter()
+            .zip(&self.receding_m)
+            .map(|(&(d, p), &r)| (d, p, r))
     }
 
     /// p_free (Pa) at outer diameter `d_m` (m), linear between the

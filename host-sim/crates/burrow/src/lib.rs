@@ -24,6 +24,7 @@ pub mod scenario;
 pub mod settings;
 pub mod solver_sand;
 pub mod stats;
+pub mod validate;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -218,7 +219,7 @@ impl Report {
                 scenario::HeadSupport::Free => ", the head then free".to_string(),
                 _ => self
                     .spec
-                    .head_draw(f.outer_diameter_m, self.spec.zone_length_m())
+                    .expansion_head_draw()
                     .map_or_else(String::new, |d| {
                         format!(
                             ", the head then drawn back with the swelling, {:.2} mm by D = {:.2} mm",

@@ -238,11 +238,14 @@ pub fn inflate(
     bar.set_length(1000);
     bar.set_position(0);
     bar.set_message("expanding");
-    // D_r counts from where the settled head sits.
+    // The draw is a law of D from the zone's rest diameter, shared with
+    // the free-skin reference; D_r counts from where the head would sit at
+    // rest, so the settled head (at the law's D_r for the settled D, a few
+    // µm at most) is not jolted at the first step.
+    let head_draw = spec.expansion_head_draw();
     if let Some(head) = &mut bed.coupling.skin.head {
-        head.origin_m = head.displacement_m;
+        head.origin_m = head.displacement_m + head_draw.map_or(0.0, |d| d.receding_at_m(d0));
     }
-    let head_draw = spec.head_draw(d0, spec.zone_length_m());
     let mut samples: Vec<Sample> = Vec::new();
     on_frame(bed, 0)?;
     for frame in 1..=spec.frames {

@@ -681,6 +681,26 @@ impl ScenarioSpec {
         }
     }
 
+    /// The head's draw through this case's expansion ([`ScenarioSpec::head_draw`]
+    /// from the zone's rest outer diameter D0 over its length): one law of
+    /// D for the run ([`crate::run::inflate`]) and for the free-skin
+    /// reference subtracted from it ([`crate::FreeCurve`]), so that both
+    /// draw the head back by the same D_r at the same D. `None` unless
+    /// [`ScenarioSpec::head`] draws it.
+    pub fn expansion_head_draw(&self) -> Option<HeadDraw> {
+        self.head_draw(self.tube.outer_diameter_mm * 1e-3, self.zone_length_m())
+    }
+
+    /// This case with the box's floor `below_m` (m) below the axis, the
+    /// settling time following the deeper or shallower column.
+    pub fn with_floor_below(self, below_m: f64) -> ScenarioSpec {
+        ScenarioSpec {
+            below_m,
+            settle_s: Self::column_settle_s(below_m + self.above_m()),
+            ..self
+        }
+    }
+
     /// The smallest grain radius (m): the face block's, else the sand's.
     pub fn min_grain_radius_m(&self) -> f64 {
         self.face_grain_radius_m

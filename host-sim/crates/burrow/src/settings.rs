@@ -180,8 +180,7 @@ impl SimulateSettings {
         set(&mut spec.ahead_m, self.ahead_mm.map(milli));
         set(&mut spec.box_width_m, self.box_width_mm.map(milli));
         if let Some(below) = self.below_mm {
-            spec.below_m = milli(below);
-            spec.settle_s = ScenarioSpec::column_settle_s(spec.below_m + spec.above_m());
+            spec = spec.with_floor_below(milli(below));
         }
         if let Some(above) = self.surcharge_above_mm {
             spec = spec.with_surcharge(milli(above), SURCHARGE_ROWS);

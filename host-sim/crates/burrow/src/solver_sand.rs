@@ -22,7 +22,8 @@ use anyhow::{ensure, Context, Result};
 use serde::Serialize;
 
 use rig::Rig;
-use sand::solver::{SolverSand, COLUMNS, INITIAL_DIAMETER_KEY, UNIT_WEIGHT_KEY};
+use sand::solver::{SolverSand, COLUMNS, INITIAL_DIAMETER_KEY, SKIN_LAW_KEY, UNIT_WEIGHT_KEY};
+use skin::SkinLaw;
 
 use crate::cases::Runner;
 use crate::stats::mean_sd;
@@ -90,10 +91,22 @@ impl RegenerateOptions {
         (spec.seed..spec.seed + self.seeds).collect()
     }
 
-    /// The solver case at `depth_mm`: [`spec`], with the rig's set-up.
+    /// The skin of the table these runs are for, as the table's model
+    /// (`model::pressure_model`) takes it: the rig's law
+    /// ([`Rig::skin_law`]: `--skin-fit`, `[skin]` or the default skin),
+    /// else the project's default skin, in both cases unscaled.
+    pub fn table_skin(&self) -> SkinLaw {
+        self.rig
+            .as_ref()
+            .map_or_else(|| skin::default_skin().into(), |r| r.rig.skin_law())
+    }
+
+    /// The solver case at `depth_mm`: [`spec`], with the rig's set-up, its
+    /// skin the table's ([`RegenerateOptions::table_skin`]), so the sand's
+    /// share is measured on the skin it will be added to.
     pub fn spec(&self, depth_mm: f64) -> Result<ScenarioSpec> {
         let Some(setup) = &self.rig else {
-            return Ok(spec(depth_mm, self.quick));
+            return Ok(spec(depth_mm, self.quick).with_skin_law(self.table_skin()));
         };
         let (h, r) = (depth_mm * 1e-3, ScenarioSpec::grain_radius_for(&setup.rig));
         let base = if self.quick {
@@ -102,7 +115,10 @@ impl RegenerateOptions {
             ScenarioSpec::paper(h, r)
         };
         let final_m = setup.final_diameter_mm.map(|d| d * 1e-3);
-        Ok(base.with_rig(&setup.rig, &setup.file, final_m)?.0)
+        Ok(base
+            .with_rig(&setup.rig, &setup.file, final_m)?
+            .0
+            .with_skin_law(self.table_skin()))
     }
 }
 
@@ -246,8 +262,10 @@ pub fn csv_text(runs: &[DepthRun], opts: &RegenerateOptions) -> Result<String> {
         );
         let _ = writeln!(s, "# final_diameter_mm = {}", probe.final_diameter_m * 1e3);
     }
-    // The skin the runs used: hexahedra through its wall, 0 for the
-    // mid-surface membrane.
+    // The skin's law as the runs used it: the tables refuse a file made
+    // with another skin than theirs.
+    let _ = writeln!(s, "# {SKIN_LAW_KEY} = {}", probe.skin_law()?.describe());
+    // Its wall: hexahedra through it, 0 for the mid-surface membrane.
     let _ = writeln!(s, "# skin_layers = {}", probe.skin_kind.layers());
     // What moved the head through the expansion (`simulate --head`).
     let _ = writeln!(s, "# head = {}", probe.head);

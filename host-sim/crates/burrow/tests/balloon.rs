@@ -354,3 +354,38 @@ fn a_split_run_merges_to_the_same_bits_as_one_machine() {
     let e = run_cases(&cases, &seeds, 2.0 * p0, Some(&merged), false, &runner).unwrap_err();
     assert!(format!("{e:#}").contains("another case"), "{e:#}");
 }
+
+#[test]
+fn the_balloons_floor_box_and_rate_can_be_swept() {
+    use burrow::balloon::BalloonOptions;
+    let paper = BalloonOptions::paper(1);
+    let (base, _) = paper.spec(40e-3).unwrap();
+    let swept = BalloonOptions {
+        below_m: Some(40e-3),
+        box_width_m: Some(80e-3),
+        expansion_s: Some(2.0 * base.expansion_s),
+        ..paper.clone()
+    };
+    let (s, _) = swept.spec(40e-3).unwrap();
+    assert_eq!(s.below_m, 40e-3);
+    // The deeper column settles longer, by the scenario's own rule.
+    assert_eq!(
+        s.settle_s,
+        ScenarioSpec::column_settle_s(40e-3 + base.above_m())
+    );
+    assert!(s.settle_s > base.settle_s);
+    assert_eq!(s.box_width_m, 80e-3);
+    assert_eq!(s.expansion_s, 2.0 * base.expansion_s);
+    // Still the balloon, and nothing else moved.
+    assert!(s.balloon && s.head == HeadSupport::Held);
+    assert_eq!(
+        ScenarioSpec {
+            below_m: base.below_m,
+            settle_s: base.settle_s,
+            box_width_m: base.box_width_m,
+            expansion_s: base.expansion_s,
+            ..s
+        },
+        base
+    );
+}

@@ -105,16 +105,26 @@ fn a_tiny_bed_settles_under_its_surcharge_and_pushes_back_on_the_expanding_zone(
 #[test]
 fn the_free_skin_curve_is_the_relaxed_skin_without_sand() {
     let spec = ScenarioSpec::paper(40e-3, 1.5e-3);
+    assert_eq!(spec.head, HeadSupport::Drawn);
+    let law = spec.expansion_head_draw().unwrap();
     let curve = FreeCurve::of(&spec).unwrap();
     assert_eq!(curve.pressure_pa(18.0e-3), None);
     assert_eq!(curve.pressure_pa(40.0e-3), None);
-    // A fresh skin relaxed at p_free(D) reaches D, for D between the
-    // curve's relaxed states.
+    // A fresh skin with the run's ends (the front ring on the head), its
+    // head drawn back by the run's law, relaxed at p_free(D) reaches D,
+    // for D between the curve's relaxed states.
     for d in [21.0e-3, 24.0e-3, 25.0e-3] {
         let p = curve.pressure_pa(d).unwrap();
-        let mut skin = spec.skin(Ends::Clamped).unwrap();
-        skin.pressure_pa = p;
-        skin.relax(1e-7, 400_000).unwrap();
+        let mut skin = spec.skin(Ends::Head).unwrap();
+        // In steps from rest: the solid wall's end row inverts if the
+        // head is drawn back 1 mm at once.
+        for k in 1..=8 {
+            let f = f64::from(k) / 8.0;
+            burrow::free_skin::place_head(&mut skin, f * law.receding_at_m(d));
+            skin.pressure_pa = f * p;
+            skin.relax(if k < 8 { 1e-5 } else { 1e-7 }, 400_000)
+                .unwrap();
+        }
         let got = skin.outer_diameter_at_mid_length_m();
         assert!(
             (got - d).abs() < 0.02e-3,
@@ -122,6 +132,49 @@ fn the_free_skin_curve_is_the_relaxed_skin_without_sand() {
             got * 1e3,
             d * 1e3
         );
+    }
+}
+
+#[test]
+fn the_free_skin_reference_moves_its_head_as_the_run_does() {
+    // The membrane zone: the same kinematics at a fraction of the cost.
+    let drawn = ScenarioSpec::paper(40e-3, 1.5e-3).with_membrane();
+    let law = drawn.expansion_head_draw().unwrap();
+    let curve = FreeCurve::of(&drawn).unwrap();
+    let states: Vec<(f64, f64, f64)> = curve.states().collect();
+    assert!(states.len() > 10, "{} states", states.len());
+    for &(d, p, r) in &states {
+        // The run's law at the state's own D (the head placement iterated
+        // to its fixed point).
+        let want = law.receding_at_m(d);
+        assert!(
+            (r - want).abs() < 1e-3 * law.final_receding_m,
+            "D {} mm, p {p} Pa: D_r {r} m, the law's {want} m",
+            d * 1e3
+        );
+    }
+    let &(d_end, _, r_end) = states.last().unwrap();
+    assert!(
+        d_end >= drawn.final_diameter_m && r_end > 1.0e-3,
+        "{d_end} {r_end}"
+    );
+    // Held in the run, held in the reference: the clamped ends of before.
+    let held = ScenarioSpec {
+        head: HeadSupport::Held,
+        ..drawn.clone()
+    };
+    let held_curve = FreeCurve::of(&held).unwrap();
+    assert!(held_curve.states().all(|(_, _, r)| r == 0.0));
+    // What the draw changes: the zone, shortened, swells at a lower
+    // pressure (here 1380 / 1910 / 2125 Pa drawn against 1423 / 1968 /
+    // 2178 Pa held at 22 / 24 / 25 mm, 2.4–3.0 % lower); the reference
+    // must be the run's.
+    for d in [22e-3, 24e-3, 25e-3] {
+        let (a, b) = (
+            curve.pressure_pa(d).unwrap(),
+            held_curve.pressure_pa(d).unwrap(),
+        );
+        assert!(a < 0.99 * b, "D {d}: drawn {a} Pa, held {b} Pa");
     }
 }
 
@@ -219,9 +272,21 @@ fn a_held_head_stays_a_free_one_recoils_and_a_drawn_one_follows_its_law() {
         free.samples[0].face_pressure_pa
     );
     let d0 = drawn.samples[0].outer_diameter_m;
-    let law = drawn.spec.head_draw(d0, 20e-3).unwrap();
+    // The law of D the free-skin reference draws its head by too, from
+    // the zone's rest diameter.
+    let law = drawn.spec.expansion_head_draw().unwrap();
+    assert_eq!(
+        law.start_diameter_m,
+        drawn.spec.tube.outer_diameter_mm * 1e-3
+    );
+    assert_eq!(
+        Some(law),
+        drawn
+            .spec
+            .head_draw(law.start_diameter_m, drawn.spec.zone_length_m())
+    );
     // π² δ² / (4 L) for the paper's zone: δ = (25 − D0) / 2, L = 20 mm.
-    let rise = 0.5 * (25e-3 - d0);
+    let rise = 0.5 * (25e-3 - law.start_diameter_m);
     assert!(
         (law.final_receding_m - 9.8696 * rise * rise / 80e-3).abs() < 1e-6 * law.final_receding_m
     );

@@ -80,7 +80,7 @@ pub const BASELINE_PARAMS: [ParamSpec; 4] = [
         // The solver fit's ΔDc: a const cannot run the fit, so the test
         // below checks this against it; regenerating the solver's data
         // (`host-sim solver-sand`) changes it.
-        default: 2.534_740_624_073_845_3,
+        default: 3.038_055_635_147_755,
         description:
             "diameter increase over which the sand goes from at rest to its limit (tanh scale)",
     },

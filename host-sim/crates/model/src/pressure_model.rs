@@ -62,11 +62,38 @@ impl SkinSandModel<SolverSand> {
     /// The paper's zone in the FEM–DEM solver's sand, read from the data
     /// file stored under the repository root `repo_root`.
     pub fn paper_solver(repo_root: &Path) -> Result<Self> {
-        Ok(Self {
+        Self {
             tube: paper_tube(),
             skin_source: DEFAULT_SKIN_SOURCE.to_owned(),
             sand: SolverSand::from_repo(repo_root)?,
-        })
+        }
+        .checked_skin()
+    }
+
+    /// This model, if its sand was measured on its skin: the solver file's
+    /// `skin_law` ([`sand::solver::SKIN_LAW_KEY`]) must be this tube's law.
+    /// The sand's share of p_i depends on the skin it meets (a softer skin
+    /// bulges into the sand less and meets less of it), so a share
+    /// measured on one skin added to another's own pressure is not the
+    /// p_i of either.
+    pub fn checked_skin(self) -> Result<Self> {
+        let want = self.tube.skin.describe();
+        let redo = "run `host-sim solver-sand` for this skin (paper: `cargo sim solver-sand`; \
+                    a rig or --skin-fit: `solver-sand --rig ... --out FILE`) and generate from that file";
+        match self.sand.skin_law() {
+            Some(got) if got == want => Ok(self),
+            Some(got) => anyhow::bail!(
+                "{}: {} = {got}, but the table's skin is {want} ({}): the sand's share was measured on another skin; {redo}",
+                self.sand.source(),
+                sand::solver::SKIN_LAW_KEY,
+                self.skin_source
+            ),
+            None => anyhow::bail!(
+                "{}: no `# {} = ...` header line: the file does not say which skin the sand's share was measured on (the table's is {want}); {redo}",
+                self.sand.source(),
+                sand::solver::SKIN_LAW_KEY,
+            ),
+        }
     }
 }
 
@@ -90,11 +117,12 @@ impl SkinSandModel<SolverSand> {
             (None, Some(_)) => "the rig's [skin]".to_owned(),
             (None, None) => DEFAULT_SKIN_SOURCE.to_owned(),
         };
-        Ok(Self {
+        Self {
             tube,
             skin_source,
             sand,
-        })
+        }
+        .checked_skin()
     }
 }
 

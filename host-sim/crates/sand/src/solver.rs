@@ -41,6 +41,12 @@ pub const UNIT_WEIGHT_KEY: &str = "buoyant_unit_weight_kpa_per_mm";
 /// `solver-sand --rig`; absent: the paper's 18.7 mm.
 pub const INITIAL_DIAMETER_KEY: &str = "initial_diameter_mm";
 
+/// Header key of the skin's law the solver runs used
+/// (the skin crate's `SkinLaw::describe` of the law as run, its scale
+/// applied):
+/// the tables add the file's sand share only to that skin.
+pub const SKIN_LAW_KEY: &str = "skin_law";
+
 /// The data columns, in the order `host-sim solver-sand` writes them.
 pub const COLUMNS: [&str; 4] = ["depth_mm", "diameter_mm", "p_e_kpa", "samples"];
 
@@ -313,6 +319,15 @@ impl SolverSand {
         self.initial_diameter_mm
     }
 
+    /// The skin's law the runs used ([`SKIN_LAW_KEY`]), as the file
+    /// states it; `None` for a file that does not say.
+    pub fn skin_law(&self) -> Option<&str> {
+        self.settings
+            .iter()
+            .find(|(k, _)| k == SKIN_LAW_KEY)
+            .map(|(_, v)| v.as_str())
+    }
+
     /// The stored depths, in increasing depth.
     pub fn curves(&self) -> &[DepthCurve] {
         &self.curves
@@ -321,6 +336,11 @@ impl SolverSand {
     /// The buoyant unit weight γ' the file states (kPa/mm).
     pub fn unit_weight_kpa_per_mm(&self) -> f64 {
         self.unit_weight_kpa_per_mm
+    }
+
+    /// The file as it is named in errors and in the description.
+    pub fn source(&self) -> &str {
+        &self.source
     }
 
     /// CRC-32 (the firmware table's algorithm) of the file's bytes.

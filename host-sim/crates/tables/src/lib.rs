@@ -94,7 +94,7 @@ pub enum TableSand {
 /// The emulator's plant and the workbench's baseline fit their parametric
 /// sand to the same file (`ParametricSand::fitted_to_solver`), so the
 /// emulated sand pushes back as the table expects; the balloon experiment
-/// is twice as strong (host-sim/crates/burrow/README.md). After a new data file:
+/// is 2.6–3.0 times as strong (host-sim/data/sand/README.md). After a new data file:
 /// `cargo sim tables`, `cargo sim emulate --export-replay`.
 pub const TABLE_SAND: TableSand = TableSand::Solver;
 
@@ -119,9 +119,12 @@ impl TableSand {
                 Box::new(SkinSandModel::paper_default().with_skin(c.law.clone(), c.source.clone())?)
             }
             (TableSand::Solver, None) => Box::new(SkinSandModel::paper_solver(repo_root)?),
+            // The committed file's sand was measured on the default skin:
+            // a fitted skin is refused unless a file made with it is given.
             (TableSand::Solver, Some(c)) => Box::new(
                 SkinSandModel::paper_solver(repo_root)?
-                    .with_skin(c.law.clone(), c.source.clone())?,
+                    .with_skin(c.law.clone(), c.source.clone())?
+                    .checked_skin()?,
             ),
         })
     }

@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 
 use model::pressure_model::SkinSandModel;
 use skin::{SkinFitChoice, StrainEnergy};
-use tables::{generate, GeneratedTable, TableSpec, TablesOutcome, TablesSettings, TABLE_SAND};
+use tables::{
+    generate, GeneratedTable, TableSand, TableSpec, TablesOutcome, TablesSettings, TABLE_SAND,
+};
 
 /// The repository root (this crate is host-sim/crates/tables).
 fn repo() -> PathBuf {
@@ -54,9 +56,12 @@ fn a_gent_fit_drives_the_table_and_stiffens_it_as_its_law_does() {
     }
 
     // So every cell of the Gent table above D0 lies above the Yeoh one
-    // (the sand is the same).
-    let with_gent = TABLE_SAND.model_with_skin(&repo(), Some(&chosen)).unwrap();
-    let with_yeoh = TABLE_SAND.model(&repo()).unwrap();
+    // (the sand is the same: the parametric law, which does not depend on
+    // the skin it is added to).
+    let with_gent = TableSand::Parametric
+        .model_with_skin(&repo(), Some(&chosen))
+        .unwrap();
+    let with_yeoh = TableSand::Parametric.model(&repo()).unwrap();
     let tg = GeneratedTable::sample(&spec, &*with_gent).unwrap();
     let ty = GeneratedTable::sample(&spec, &*with_yeoh).unwrap();
     let n = spec.diameters_mm.len();
@@ -66,14 +71,29 @@ fn a_gent_fit_drives_the_table_and_stiffens_it_as_its_law_does() {
             assert!(g > y, "D {d} mm, row {}: Gent {g} vs Yeoh {y} kPa", k / n);
         }
     }
+    // The committed solver sand was measured on the default skin: with the
+    // Gent skin it is refused, naming the file and both skins.
+    let e = format!(
+        "{:#}",
+        TABLE_SAND
+            .model_with_skin(&repo(), Some(&chosen))
+            .err()
+            .unwrap()
+    );
+    assert!(
+        e.contains(sand::solver::DATA_PATH)
+            && e.contains("skin_law = Yeoh")
+            && e.contains("the table's skin is Gent mu_kpa = ")
+            && e.contains("solver-sand --rig"),
+        "{e}"
+    );
     // Near rest both tubes are linear: their pressures stand as the small-
     // strain moduli (Gent's μ against Yeoh's 2·C10).
     let repo = repo();
-    let g = SkinSandModel::paper_solver(&repo)
-        .unwrap()
+    let g = SkinSandModel::paper_default()
         .with_skin(gent.clone(), chosen.source.clone())
         .unwrap();
-    let y = SkinSandModel::paper_solver(&repo).unwrap();
+    let y = SkinSandModel::paper_default();
     let ratio = g.membrane_kpa(18.75).unwrap() / y.membrane_kpa(18.75).unwrap();
     let want = gent.shear_modulus_kpa() / yeoh.shear_modulus_kpa();
     println!(
@@ -83,13 +103,43 @@ fn a_gent_fit_drives_the_table_and_stiffens_it_as_its_law_does() {
     );
     assert!((ratio / want - 1.0).abs() < 0.01, "{ratio} vs {want}");
 
+    // The paper's table with --skin-fit: refused (its solver sand is the
+    // default skin's), the way to a consistent table named.
+    let paper = TablesSettings {
+        repo: repo.clone(),
+        check: false,
+        rig: None,
+        skin_fit: Some(choice.clone()),
+        out: Some(dir.path().join("refused.rs")),
+        image: None,
+    };
+    let e = format!("{:#}", generate(&paper).unwrap_err());
+    assert!(e.contains("skin_law") && e.contains("Gent"), "{e}");
+    assert!(!dir.path().join("refused.rs").exists());
+
+    // A rig's table with a solver file made for the Gent skin
+    // (`solver-sand --rig RIG --skin-fit ... --out FILE` records it).
+    let rig_dir = dir.path().join("rig");
+    std::fs::create_dir_all(&rig_dir).unwrap();
+    let rig_file = rig_dir.join("rig.toml");
+    std::fs::write(&rig_file, rig::Rig::paper_default().to_toml().unwrap()).unwrap();
+    let sand_file = dir.path().join("gent-sand.csv");
+    let sand_text = |law: &str| {
+        format!(
+            "# {} = 0.0104\n# {} = {law}\ndepth_mm,diameter_mm,p_e_kpa,samples\n\
+             40,18.9,0.30,5\n40,25.0,2.00,5\n100,18.9,0.50,5\n100,25.0,5.80,5\n",
+            sand::solver::UNIT_WEIGHT_KEY,
+            sand::solver::SKIN_LAW_KEY,
+        )
+    };
+    std::fs::write(&sand_file, sand_text(&gent.describe())).unwrap();
     // The file: the law and the regenerating command in its header; a
     // rerun with the same options finds it fresh.
     let out = dir.path().join("gent.rs");
     let settings = TablesSettings {
         repo: repo.clone(),
         check: false,
-        rig: None,
+        rig: Some((rig_file.clone(), sand_file.clone())),
         skin_fit: Some(choice),
         out: Some(out.clone()),
         image: None,
@@ -103,4 +153,15 @@ fn a_gent_fit_drives_the_table_and_stiffens_it_as_its_law_does() {
         ..settings
     };
     assert_eq!(generate(&check).unwrap().outcome, TablesOutcome::Unchanged);
+    // The same file for the rig's own [skin] is refused.
+    let own = TablesSettings {
+        skin_fit: None,
+        check: false,
+        ..check
+    };
+    let e = format!("{:#}", generate(&own).unwrap_err());
+    assert!(
+        e.contains("gent-sand.csv") && e.contains("the table's skin is Yeoh"),
+        "{e}"
+    );
 }
