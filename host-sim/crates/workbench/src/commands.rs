@@ -527,6 +527,23 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
     for (name, why) in &d.not_applicable {
         s += &format!("  {name:<22} not tried: {why}\n");
     }
+    let tests = std::iter::once(&d.candidates)
+        .chain(&d.later_rounds)
+        .flatten()
+        .filter_map(|c| c.beside_form.as_ref());
+    for t in tests {
+        s += &format!(
+            "{} fitted beside {}, which ranked above it: ΔBIC {:.1} against the form alone, held-out {:.4} kPa against {:.4}, better in {} of {} folds: {}\n",
+            t.effect,
+            t.form,
+            t.score,
+            t.heldout_rmse_kpa,
+            t.form_heldout_rmse_kpa,
+            t.heldout_folds_better[0],
+            t.heldout_folds_better[1],
+            if t.accepted { "both added" } else { "not kept" }
+        );
+    }
     if d.selected.is_empty() {
         s += "selected: none (no effect pays off)\n";
     } else {

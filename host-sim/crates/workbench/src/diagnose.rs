@@ -9,7 +9,9 @@
 //! down by ≥ 2 % and in every fold, at least a third of the residual's
 //! excess over the noise floor explained, and none of its own refusals
 //! ([`Candidate::refusals`]). Forms of the baseline compete with the
-//! physical effects on the same terms. A structured residual
+//! physical effects on the same terms; a strong physical effect that a
+//! form outranks is fitted together with that form and kept beside it
+//! when the data still want it ([`BesideForm`]). A structured residual
 //! that remains is reported as `unexplained`, described in words, rather
 //! than forced onto a wrong effect.
 
@@ -52,6 +54,13 @@ pub struct DiagnoseOptions {
     pub min_excess_explained: f64,
     /// Most physical effects added (forms of the baseline come on top).
     pub max_effects: usize,
+    /// A physical effect that pays on every count and changes the reading
+    /// by at least this many noise floors is fitted together with a form
+    /// that ranks above it (see [`BesideForm`]). Twice the noise: a
+    /// change near one noise floor is what the forms leave of a skin that
+    /// is not the model's (on the second outside rig's `[skin]` control, a
+    /// −0.027 kPa offset changed the reading by 1.05 noise floors).
+    pub challenge_change_factor: f64,
 }
 
 impl DiagnoseOptions {
@@ -77,6 +86,7 @@ impl Default for DiagnoseOptions {
             max_folds_worse: 0,
             min_excess_explained: 0.33,
             max_effects: 4,
+            challenge_change_factor: 2.0,
         }
     }
 }
@@ -120,15 +130,62 @@ pub struct Candidate {
     /// only the shared thresholds, ΔBIC, held-out gain and excess
     /// explained, decide).
     pub refusals: Vec<String>,
+    /// For a physical effect that paid on every count while a form ranked
+    /// above it: the two fitted together ([`BesideForm`]); null otherwise.
+    pub beside_form: Option<BesideForm>,
+    /// For a physical effect: how much worse its own fit gets, in BIC,
+    /// with the effect switched off and everything else left as fitted.
+    /// Below −[`DiagnoseOptions::max_delta_bic`] the effect does not carry
+    /// its fit's gain: refitting the rest found a better optimum (a leak
+    /// of 1e-4 mL/(s·kPa) with ΔBIC −528). Null for a form.
+    pub carried_bic: Option<f64>,
+}
+
+/// A physical effect fitted together with the form that ranked above it:
+/// whether the data keep the effect beside the form.
+#[derive(Clone, Debug, Serialize)]
+pub struct BesideForm {
+    /// The physical effect.
+    pub effect: String,
+    /// The form that ranked above it.
+    pub form: String,
+    /// ΔBIC of form + effect against the current model + the form alone.
+    pub score: f64,
+    /// Held-out RMSE of form + effect (kPa).
+    pub heldout_rmse_kpa: f64,
+    /// Held-out RMSE of the current model + the form alone (kPa).
+    pub form_heldout_rmse_kpa: f64,
+    /// In how many folds form + effect predicts better than the form
+    /// alone, of how many.
+    pub heldout_folds_better: [usize; 2],
+    /// The effect's fitted parameters in the joint fit.
+    pub params: Vec<FittedParam>,
+    /// Whether the two were added together.
+    pub accepted: bool,
 }
 
 impl Candidate {
-    /// The reasons of its own that keep it out: parameters at a bound, a
-    /// size not told apart from rig.toml, held-out worse in more folds
-    /// than `folds_worse` allows, a physical effect whose change of the
+    /// The reasons of its own that keep it out: a physical effect that
+    /// carries less than `min_carried_bic` of its fit's BIC
+    /// ([`Candidate::carried_bic`]), parameters at a bound, a size not
+    /// told apart from rig.toml, held-out worse in more folds than
+    /// `folds_worse` allows, a physical effect whose change of the
     /// reading is below `noise_kpa`.
-    fn own_refusals(&self, form: bool, noise_kpa: f64, folds_worse: usize) -> Vec<String> {
+    fn own_refusals(
+        &self,
+        form: bool,
+        noise_kpa: f64,
+        folds_worse: usize,
+        min_carried_bic: f64,
+    ) -> Vec<String> {
         let mut why = Vec::new();
+        if let Some(carried) = self.carried_bic {
+            if self.score < 0.0 && carried < min_carried_bic {
+                why.push(format!(
+                    "switched off in its own fit it costs only {carried:.1} in BIC: refitting the rest, not the effect, made the gain"
+                ));
+            }
+        }
         if !self.at_bound.is_empty() {
             why.push(format!("{} at its bound", self.at_bound.join(", ")));
         }
@@ -356,6 +413,84 @@ pub fn noise_floor(experiment: &Experiment, data: &Dataset, r: &[f64]) -> (f64, 
     }
 }
 
+/// BIC lost by `fit` (over `data`'s fitted samples) when its last effect,
+/// a physical one, is switched off and everything else stays as fitted.
+/// Off is the primary parameter at 0 where its range holds 0, else at its
+/// default (a gain's 1), as `model`'s `neutral_values_do_nothing` test
+/// holds for every effect.
+fn carried_bic(fit: &Fit, data: &Dataset) -> Option<f64> {
+    let mut space = fit.space.clone();
+    let last = space.effects.last_mut()?;
+    let primary = last.spec.params.first()?;
+    last.values[0] = if primary.lower <= 0.0 && primary.upper >= 0.0 {
+        0.0
+    } else {
+        primary.default
+    };
+    let model = space.model(&space.start()).ok()?;
+    let off: f64 = data
+        .predict(&model)
+        .iter()
+        .zip(&data.measured)
+        .zip(&data.skip)
+        .filter(|(_, skip)| !**skip)
+        .map(|((p, m), _)| (p - m) * (p - m))
+        .sum();
+    let n = fit.n.max(1) as f64;
+    (off.is_finite() && fit.ssr > 0.0).then(|| n * (off / fit.ssr).ln())
+}
+
+/// Fits the physical effect of `effect_fit` together with the form of
+/// `form_fit` onto `current` (warm, from both fits) and judges the effect
+/// beside the form: ΔBIC and held-out gain against the form alone, as for
+/// any candidate, held-out better in every fold but one (the pair holds a
+/// form, which may be worse in one fold), none of the effect's parameters
+/// on a bound. The change rule is not applied: a form that can take up the
+/// effect's signature leaves only a small change to the effect, which the
+/// effect's own fit against `current` has shown to be above the noise.
+#[allow(clippy::too_many_arguments)]
+fn beside_form(
+    basis: &std::sync::Arc<RigBasis>,
+    data: &Dataset,
+    masks: &[Vec<bool>],
+    opts: &DiagnoseOptions,
+    current: &Fit,
+    form_fit: &Fit,
+    form_heldout: &Heldout,
+    effect_fit: &Fit,
+) -> Option<(Fit, Heldout, BesideForm)> {
+    let form = form_fit.space.effects.last()?;
+    let effect = effect_fit.space.effects.last()?;
+    let mut effects = current.space.effects.clone();
+    effects.push(form.clone());
+    effects.push(effect.clone());
+    let fit = fit_effects(basis, data, effect_fit.space.baseline, effects, opts.fit).ok()?;
+    let h = heldout(&fit, data, masks, opts);
+    let own = format!("{}.", effect.spec.name);
+    let params: Vec<FittedParam> = fit
+        .params
+        .iter()
+        .filter(|p| p.name.starts_with(&own))
+        .cloned()
+        .collect();
+    let score = fit.bic() - form_fit.bic();
+    let better = h.better_folds(form_heldout);
+    let accepted = opts.gains(score, h.overall, form_heldout.overall)
+        && better + opts.max_folds_worse + 1 >= h.folds.len()
+        && !params.iter().any(|p| p.at_bound);
+    let test = BesideForm {
+        effect: effect.spec.name.to_owned(),
+        form: form.spec.name.to_owned(),
+        score,
+        heldout_rmse_kpa: h.overall,
+        form_heldout_rmse_kpa: form_heldout.overall,
+        heldout_folds_better: [better, h.folds.len()],
+        params,
+        accepted,
+    };
+    Some((fit, h, test))
+}
+
 /// Starting points of a candidate's parameters: its defaults and, for an
 /// effect that starts switched off (default on the lower bound), a probe
 /// at 5 % of the range: a weak, partly confounded effect (a small bubble
@@ -518,6 +653,10 @@ fn diagnose_skipping(
                     indistinct,
                     change_rms_kpa,
                     refusals: Vec::new(),
+                    beside_form: None,
+                    carried_bic: (!spec.kind.is_baseline_form())
+                        .then(|| carried_bic(&fit, &data))
+                        .flatten(),
                 };
                 Some((fit, cand))
             })
@@ -528,6 +667,10 @@ fn diagnose_skipping(
         // taken.
         let (mut forms_seen, mut effects_seen) = (0, 0);
         let mut best: Option<(Fit, Heldout)> = None;
+        // The best physical effect that pays on every count and changes
+        // the reading by `challenge_change_factor` noise floors, when a
+        // form ranks above it.
+        let mut challenger: Option<(Fit, Heldout)> = None;
         for (fit, cand) in fits.iter_mut() {
             let form = fit
                 .space
@@ -549,7 +692,7 @@ fn diagnose_skipping(
                 cand.heldout_folds_better = Some([h.better_folds(&current_heldout), h.folds.len()]);
                 held = Some(h);
             }
-            cand.refusals = cand.own_refusals(form, noise, folds_worse);
+            cand.refusals = cand.own_refusals(form, noise, folds_worse, -opts.max_delta_bic);
             let Some(h) = held else { continue };
             let pays = opts.gains(cand.score, h.overall, current_heldout.overall)
                 && cand.excess_explained >= opts.min_excess_explained
@@ -557,13 +700,52 @@ fn diagnose_skipping(
                 && (form || physical < opts.max_effects);
             if pays && best.is_none() {
                 best = Some((fit.clone(), h));
+            } else if pays
+                && !form
+                && challenger.is_none()
+                && cand.change_rms_kpa >= opts.challenge_change_factor * noise
+            {
+                challenger = Some((fit.clone(), h));
+            }
+        }
+        let mut added = 1;
+        // A form can take up a physical effect's signature (a skin curve
+        // that stiffens sooner holds the volume a bubble would): a strong
+        // effect that pays on every count but ranks below the best form
+        // is fitted together with it, and the two are added when the data
+        // keep the effect beside the form.
+        let best_is_form = best.as_ref().is_some_and(|(f, _)| {
+            f.space
+                .effects
+                .last()
+                .is_some_and(|e| e.spec.kind.is_baseline_form())
+        });
+        if let (true, Some((effect_fit, _)), Some((form_fit, form_heldout))) =
+            (best_is_form, challenger.as_ref(), best.as_ref())
+        {
+            if let Some((fit, h, test)) = beside_form(
+                basis,
+                &data,
+                &masks,
+                opts,
+                &current,
+                form_fit,
+                form_heldout,
+                effect_fit,
+            ) {
+                if let Some(c) = fits.iter_mut().find(|f| f.1.effect == test.effect) {
+                    c.1.beside_form = Some(test.clone());
+                }
+                if test.accepted {
+                    best = Some((fit, h));
+                    added = 2;
+                }
             }
         }
         // A sand and a skin that are not the model's can need several
         // forms, each taking its own part of the misfit: when no single
         // candidate pays, the two best forms that pay on every count but
         // the excess explained are judged together.
-        let mut added = 1;
         if best.is_none() {
             let pays_but_excess = |f: &(Fit, Candidate)| {
                 f.1.refusals.is_empty()
