@@ -309,7 +309,7 @@ fn scenario_rows(h: f64, e: &Ensemble, reduced: bool) -> Result<Vec<Row>> {
             none
         } else {
             (
-                "paper 96.4–97.7 %",
+                "paper's range 96.4–97.7 %, as mid ± half",
                 Some(0.5 * (lo + hi)),
                 Some(0.5 * (hi - lo)),
             )
@@ -380,8 +380,10 @@ impl Validation {
         for r in &self.rows {
             let reference = match (r.reference_value, r.reference_sd) {
                 (Some(v), Some(sd)) => format!(
-                    "{} {v} ± {sd} {}{}",
+                    "{} {} ± {} {}{}",
                     r.reference,
+                    short(v),
+                    short(sd),
                     r.unit,
                     match r.within {
                         Some(true) => ", within",
@@ -389,7 +391,7 @@ impl Validation {
                         None => "",
                     }
                 ),
-                (Some(v), None) => format!("{} {v} {}", r.reference, r.unit),
+                (Some(v), None) => format!("{} {} {}", r.reference, short(v), r.unit),
                 _ => "–".into(),
             };
             let _ = writeln!(
@@ -411,4 +413,25 @@ impl Validation {
 /// The folder of the scenario's ensemble at `depth_mm` under `out`.
 pub fn scenario_dir(out: &Path, depth_mm: f64) -> PathBuf {
     out.join("scenario").join(format!("h{depth_mm}mm"))
+}
+
+/// `x` to three decimals without trailing zeros (a reference's figures as
+/// written: 97.05, not 97.05000000000001).
+fn short(x: f64) -> String {
+    let s = format!("{x:.3}");
+    let s = s.trim_end_matches('0');
+    s.trim_end_matches('.').to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::short;
+
+    #[test]
+    fn reference_figures_are_written_short() {
+        assert_eq!(short(0.5 * (96.4 + 97.7)), "97.05");
+        assert_eq!(short(0.5 * (97.7 - 96.4)), "0.65");
+        assert_eq!(short(3.86), "3.86");
+        assert_eq!(short(4.0), "4");
+    }
 }
