@@ -20,6 +20,10 @@ pub struct ParamSpec {
     pub upper: f64,
     /// Default value and calibration start.
     pub default: f64,
+    /// The lower bound is a member of the law (its linear limit, say), not
+    /// the edge of what is plausible: a fit that ends there is not "at a
+    /// bound".
+    pub lower_is_law: bool,
     /// What it is, in a few words.
     pub description: &'static str,
 }
@@ -52,6 +56,7 @@ pub const BASELINE_PARAMS: [ParamSpec; 4] = [
         lower: 0.05,
         upper: 20.0,
         default: 1.0,
+        lower_is_law: false,
         description:
             "factor on the skin law's strain energy (every modulus); fitted only when the skin is not known (no [skin], no --skin-fit)",
     },
@@ -61,6 +66,7 @@ pub const BASELINE_PARAMS: [ParamSpec; 4] = [
         lower: 0.0,
         upper: 10.0,
         default: 1.0,
+        lower_is_law: false,
         description: "factor on the sand's at-rest lateral coefficient K0",
     },
     ParamSpec {
@@ -69,6 +75,7 @@ pub const BASELINE_PARAMS: [ParamSpec; 4] = [
         lower: 0.0,
         upper: 10.0,
         default: 1.0,
+        lower_is_law: false,
         description:
             "factor on the sand's limit lateral coefficient N (fitted to the solver's sand)",
     },
@@ -81,6 +88,7 @@ pub const BASELINE_PARAMS: [ParamSpec; 4] = [
         // below checks this against it; regenerating the solver's data
         // (`host-sim solver-sand`) changes it.
         default: 3.038_055_635_147_755,
+        lower_is_law: false,
         description:
             "diameter increase over which the sand goes from at rest to its limit (tanh scale)",
     },

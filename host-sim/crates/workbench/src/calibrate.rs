@@ -384,7 +384,7 @@ fn uncertainties(
                         (value + 1.96 * e).min(spec.upper),
                     ]
                 }),
-                at_bound: value <= spec.lower || value >= spec.upper,
+                at_bound: (value <= spec.lower && !spec.lower_is_law) || value >= spec.upper,
             }
         })
         .collect()

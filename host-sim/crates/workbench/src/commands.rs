@@ -533,7 +533,7 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
         .filter_map(|c| c.beside_form.as_ref());
     for t in tests {
         s += &format!(
-            "{} fitted beside {}, which ranked above it: ΔBIC {:.1} against the form alone, held-out {:.4} kPa against {:.4}, better in {} of {} folds: {}\n",
+            "{} fitted beside {}, a form that also pays: ΔBIC {:.1} against the form alone, held-out {:.4} kPa against {:.4}, better in {} of {} folds: {}\n",
             t.effect,
             t.form,
             t.score,
@@ -541,7 +541,7 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
             t.form_heldout_rmse_kpa,
             t.heldout_folds_better[0],
             t.heldout_folds_better[1],
-            if t.accepted { "both added" } else { "not kept" }
+            if t.accepted { "kept" } else { "not kept" }
         );
     }
     if d.selected.is_empty() {

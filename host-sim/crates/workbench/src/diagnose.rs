@@ -141,7 +141,8 @@ pub struct Candidate {
     pub carried_bic: Option<f64>,
 }
 
-/// A physical effect fitted together with the form that ranked above it:
+/// A physical effect fitted together with a form that ranked above it (or
+/// that also paid when the effect ranked first):
 /// whether the data keep the effect beside the form.
 #[derive(Clone, Debug, Serialize)]
 pub struct BesideForm {
@@ -443,9 +444,10 @@ fn carried_bic(fit: &Fit, data: &Dataset) -> Option<f64> {
 /// Fits the physical effect of `effect_fit` together with the form of
 /// `form_fit` onto `current` (warm, from both fits) and judges the effect
 /// beside the form: ΔBIC and held-out gain against the form alone, as for
-/// any candidate, held-out better in every fold but one (the pair holds a
-/// form, which may be worse in one fold), none of the effect's parameters
-/// on a bound. The change rule is not applied: a form that can take up the
+/// any candidate, held-out better in every fold but `spare_folds` (1 where
+/// the form ranked first: the pair holds a form, which may be worse in one
+/// fold; 0 where the effect did: then the effect is what is judged), none of
+/// the effect's parameters on a bound. The change rule is not applied: a form that can take up the
 /// effect's signature leaves only a small change to the effect, which the
 /// effect's own fit against `current` has shown to be above the noise.
 #[allow(clippy::too_many_arguments)]
@@ -455,9 +457,9 @@ fn beside_form(
     masks: &[Vec<bool>],
     opts: &DiagnoseOptions,
     current: &Fit,
-    form_fit: &Fit,
-    form_heldout: &Heldout,
+    (form_fit, form_heldout): (&Fit, &Heldout),
     effect_fit: &Fit,
+    spare_folds: usize,
 ) -> Option<(Fit, Heldout, BesideForm)> {
     let form = form_fit.space.effects.last()?;
     let effect = effect_fit.space.effects.last()?;
@@ -476,7 +478,7 @@ fn beside_form(
     let score = fit.bic() - form_fit.bic();
     let better = h.better_folds(form_heldout);
     let accepted = opts.gains(score, h.overall, form_heldout.overall)
-        && better + opts.max_folds_worse + 1 >= h.folds.len()
+        && better + opts.max_folds_worse + spare_folds >= h.folds.len()
         && !params.iter().any(|p| p.at_bound);
     let test = BesideForm {
         effect: effect.spec.name.to_owned(),
@@ -671,6 +673,9 @@ fn diagnose_skipping(
         // the reading by `challenge_change_factor` noise floors, when a
         // form ranks above it.
         let mut challenger: Option<(Fit, Heldout)> = None;
+        // The best form that pays on every count when a physical effect
+        // ranks above it: the effect must then earn its place beside it.
+        let mut rival: Option<(Fit, Heldout)> = None;
         for (fit, cand) in fits.iter_mut() {
             let form = fit
                 .space
@@ -700,6 +705,8 @@ fn diagnose_skipping(
                 && (form || physical < opts.max_effects);
             if pays && best.is_none() {
                 best = Some((fit.clone(), h));
+            } else if pays && form && rival.is_none() {
+                rival = Some((fit.clone(), h));
             } else if pays
                 && !form
                 && challenger.is_none()
@@ -729,9 +736,9 @@ fn diagnose_skipping(
                 &masks,
                 opts,
                 &current,
-                form_fit,
-                form_heldout,
+                (form_fit, form_heldout),
                 effect_fit,
+                1,
             ) {
                 if let Some(c) = fits.iter_mut().find(|f| f.1.effect == test.effect) {
                     c.1.beside_form = Some(test.clone());
@@ -739,6 +746,35 @@ fn diagnose_skipping(
                 if test.accepted {
                     best = Some((fit, h));
                     added = 2;
+                }
+            }
+        }
+        // The same question the other way round: a skin or sand that is
+        // not the model's can look like an effect (a skin law that unloads
+        // differently looks like stress softening). When an effect ranks
+        // first and a form also pays, the effect is fitted beside the form
+        // and judged as an effect, better in every fold: it is added (alone:
+        // the form must then pay on its own in the next round) if it keeps
+        // its gain there, else the form is added instead, and the effect may
+        // come back in a later round.
+        if let (false, Some((effect_fit, _)), Some((form_fit, form_heldout))) =
+            (best_is_form, best.as_ref(), rival.as_ref())
+        {
+            if let Some((_, _, test)) = beside_form(
+                basis,
+                &data,
+                &masks,
+                opts,
+                &current,
+                (form_fit, form_heldout),
+                effect_fit,
+                0,
+            ) {
+                if let Some(c) = fits.iter_mut().find(|f| f.1.effect == test.effect) {
+                    c.1.beside_form = Some(test.clone());
+                }
+                if !test.accepted {
+                    best = rival.clone();
                 }
             }
         }

@@ -192,7 +192,7 @@ pub fn typical(name: &str) -> Result<EffectInstance> {
         "trapped_air" => &[("gas_volume_ml", 8.0)],
         "leak" => &[("ml_per_s_per_kpa", 0.005)],
         "skin_viscoelasticity" => &[("fraction", 0.8), ("tau_s", 1.5)],
-        "mullins_softening" => &[("fraction", 0.4)],
+        "mullins_softening" => &[("rate", 1.33), ("saturation", 3.33)],
         "wall_arching" => &[("mu_k", 0.25)],
         "sensor_lag" => &[("lag_s", 0.04)],
         "sand_depth_power" => &[("exponent", 0.7)],

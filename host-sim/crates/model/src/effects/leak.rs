@@ -11,6 +11,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: 0.0,
     upper: 1.0,
     default: 0.0,
+    lower_is_law: false,
     description: "leak flow per kPa of gauge pressure",
 }];
 

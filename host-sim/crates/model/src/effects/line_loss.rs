@@ -11,6 +11,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: 0.0,
     upper: 20.0,
     default: 0.0,
+    lower_is_law: false,
     description: "pressure drop per unit flow between the sensor and the actuator",
 }];
 

@@ -397,7 +397,7 @@ mod tests {
             ("trapped_air", "gas_volume_ml"),
             ("leak", "ml_per_s_per_kpa"),
             ("skin_viscoelasticity", "fraction"),
-            ("mullins_softening", "fraction"),
+            ("mullins_softening", "rate"),
             ("wall_arching", "mu_k"),
             ("sensor_lag", "lag_s"),
             ("sand_depth_power", "exponent"),

@@ -14,6 +14,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: 0.0,
     upper: 200.0,
     default: 0.0,
+    lower_is_law: false,
     description: "Coulomb friction force of the piston seal",
 }];
 

@@ -20,6 +20,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: 0.3,
     upper: 2.5,
     default: 1.0,
+    lower_is_law: false,
     description: "power of depth the sand's push follows (1: in proportion to depth)",
 }];
 

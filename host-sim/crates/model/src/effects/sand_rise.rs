@@ -16,6 +16,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: -0.9,
     upper: 10.0,
     default: 1.0,
+    lower_is_law: false,
     description: "shape of the sand's rise: 1 tanh (the law's own), 0 exponential approach, < 0 more gradual, > 1 more abrupt",
 }];
 

@@ -19,6 +19,7 @@ const PARAMS: [ParamSpec; 2] = [
         lower: 0.05,
         upper: 20.0,
         default: 1.0,
+        lower_is_law: false,
         description: "factor on the sand's initial unloading slope (1: the law's own)",
     },
     ParamSpec {
@@ -27,6 +28,7 @@ const PARAMS: [ParamSpec; 2] = [
         lower: -2.0,
         upper: 1.0,
         default: 1.0,
+        lower_is_law: false,
         description:
             "shape towards the floor: 1 straight (the law's own), 0 exponential, < 0 a longer tail",
     },

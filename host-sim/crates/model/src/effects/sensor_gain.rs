@@ -19,6 +19,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: 0.5,
     upper: 2.0,
     default: 1.0,
+    lower_is_law: false,
     description: "reading per unit of true gauge pressure",
 }];
 

@@ -39,6 +39,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: 0.0,
     upper: 0.05,
     default: 0.0,
+    lower_is_law: false,
     description: "age of the pressure reading when it is logged with the pump volume",
 }];
 

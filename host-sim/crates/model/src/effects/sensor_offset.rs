@@ -11,6 +11,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: -50.0,
     upper: 50.0,
     default: 0.0,
+    lower_is_law: false,
     description: "constant added to every reading",
 }];
 

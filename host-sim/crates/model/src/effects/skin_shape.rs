@@ -18,6 +18,7 @@ const PARAMS: [ParamSpec; 2] = [
         lower: -5.0,
         upper: 20.0,
         default: 0.0,
+        lower_is_law: false,
         description: "a in 1 + a·x + b·x² on the skin's pressure, x = I1 − 3 (0: the law's shape)",
     },
     ParamSpec {
@@ -26,6 +27,7 @@ const PARAMS: [ParamSpec; 2] = [
         lower: -20.0,
         upper: 50.0,
         default: 0.0,
+        lower_is_law: false,
         description: "b in 1 + a·x + b·x² on the skin's pressure (0: the law's shape)",
     },
 ];

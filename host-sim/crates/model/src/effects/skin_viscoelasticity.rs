@@ -15,6 +15,7 @@ const PARAMS: [ParamSpec; 2] = [
         lower: 0.0,
         upper: 5.0,
         default: 0.1,
+        lower_is_law: false,
         description: "Prony weight g: instantaneous over long-term skin stiffness, minus 1",
     },
     ParamSpec {
@@ -23,6 +24,7 @@ const PARAMS: [ParamSpec; 2] = [
         lower: 0.05,
         upper: 200.0,
         default: 2.0,
+        lower_is_law: false,
         description: "relaxation time of the overstress",
     },
 ];

@@ -13,6 +13,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: 0.0,
     upper: 20.0,
     default: 0.0,
+    lower_is_law: false,
     description: "gas volume at rest (gauge zero, at the actuator's depth)",
 }];
 

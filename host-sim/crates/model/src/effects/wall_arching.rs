@@ -15,6 +15,7 @@ const PARAMS: [ParamSpec; 1] = [ParamSpec {
     lower: 0.0,
     upper: 3.0,
     default: 0.0,
+    lower_is_law: false,
     description: "wall friction coefficient times the lateral stress ratio",
 }];
 

@@ -75,8 +75,8 @@ pub enum Hidden {
 
 impl Hidden {
     /// The library effect and primary parameter it should be named as, with
-    /// the true value in `truth`'s rig; `None` for one outside the library.
-    pub fn library(self, truth: &Truth) -> Option<(&'static str, &'static str, f64)> {
+    /// its true value; `None` for one outside the library.
+    pub fn library(self) -> Option<(&'static str, &'static str, f64)> {
         match self {
             Hidden::Leak(k) => Some(("leak", "ml_per_s_per_kpa", k)),
             Hidden::TrappedAir(v) => Some(("trapped_air", "gas_volume_ml", v)),
@@ -86,26 +86,9 @@ impl Hidden {
             Hidden::SensorLag(tau) => Some(("sensor_lag", "lag_s", tau)),
             Hidden::PistonFriction(f) => Some(("piston_friction", "friction_n", f)),
             Hidden::SkinViscoelastic(g, _) => Some(("skin_viscoelasticity", "fraction", g)),
-            // The library softens by r·(1 − x), x = (D − D0)/(D_max − D0);
-            // this law by s(x) = erf((W_max − W)/m)/r, another shape. The
-            // true r is the least-squares projection of s onto r·(1 − x)
-            // over the unloading, D_max that of the rig's 5 mL fill.
-            Hidden::Mullins(inv_r, m) => {
-                let w = |d: f64| {
-                    let l2 = (d / truth.d0_mm).powi(2);
-                    l2 + 1.0 / l2 - 2.0
-                };
-                let d_max = truth.diameter_mm(FILL_ML);
-                let (mut num, mut den) = (0.0, 0.0);
-                for k in 0..=200 {
-                    let x = k as f64 / 200.0;
-                    let d = truth.d0_mm + x * (d_max - truth.d0_mm);
-                    let softening = inv_r * libm::erf((w(d_max) - w(d)) / m);
-                    num += softening * (1.0 - x);
-                    den += (1.0 - x) * (1.0 - x);
-                }
-                Some(("mullins_softening", "fraction", num / den))
-            }
+            // The library's law is Ogden–Roxburgh's with the same
+            // stand-in for W, fitted by its initial rate 1/(r·m).
+            Hidden::Mullins(inv_r, m) => Some(("mullins_softening", "rate", inv_r / m)),
             // The library's slot of width B sees 2·μk/B; a box W × L
             // has the hydraulic radius R = WL/(2(W + L)) and sees μK/R:
             // μk = μK·W/(2R).
