@@ -74,9 +74,7 @@ fn params(tiles: usize) -> Result<Params> {
 pub fn settled_bed(steps: u64) -> Result<State> {
     let params = params(1)?;
     let mut state = State::new(benchmark::grains()?);
-    for _ in 0..steps {
-        dem::step(&params, &mut state, &mut ())?;
-    }
+    dem::advance(&params, &mut state, &mut (), steps)?;
     Ok(state)
 }
 
@@ -149,13 +147,9 @@ pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<Scaling
             let n = state.particles.len();
             progress(&format!("{n} particles, {w} worker(s)"));
             let (wall_s, contacts) = pool.install(|| -> Result<(f64, f64)> {
-                for _ in 0..WARM_UP_STEPS {
-                    dem::step(&params, &mut state, &mut ())?;
-                }
+                dem::advance(&params, &mut state, &mut (), WARM_UP_STEPS)?;
                 let t0 = Instant::now();
-                for _ in 0..opts.steps {
-                    dem::step(&params, &mut state, &mut ())?;
-                }
+                dem::advance(&params, &mut state, &mut (), opts.steps)?;
                 Ok((t0.elapsed().as_secs_f64(), state.mean_contacts()))
             })?;
             let kick_s = pool.install(|| {
