@@ -333,36 +333,73 @@ pub(crate) fn split_lengths<T>(
 /// Advances `state` by one step `params.dt_s` (velocity Verlet), calling
 /// `sink` for external forces and at the end.
 pub fn step(params: &Params, state: &mut State, sink: &mut impl Sink) -> Result<(), DemError> {
+    advance(params, state, sink, 1)
+}
+
+/// Advances `state` by `steps` steps of `params.dt_s`, with the same bits
+/// as as many calls of [`step`], calling `sink` for external forces every
+/// step but [`Sink::step_done`] only once, at the end (none for zero
+/// steps): the state between two steps is never shown, so each step's
+/// closing half kick is done in the next step's first sweep (one pass over
+/// the particles fewer per step).
+pub fn advance(
+    params: &Params,
+    state: &mut State,
+    sink: &mut impl Sink,
+    steps: u64,
+) -> Result<(), DemError> {
+    if steps == 0 {
+        return Ok(());
+    }
     params.validate()?;
-    state.prepare(params)?;
-    if !state.forces_ready {
-        state.evaluate_forces(params, sink, false);
-        state.forces_ready = true;
+    // Whether the last step's closing half kick is still to be applied.
+    let mut pending = false;
+    for left in (0..steps).rev() {
+        if let Err(e) = state.prepare(params) {
+            if pending {
+                integrate::kick(&mut state.particles, params.dt_s);
+            }
+            return Err(e);
+        }
+        if !state.forces_ready {
+            // The forces are re-evaluated from the velocities after the
+            // closing kick.
+            if pending {
+                integrate::kick(&mut state.particles, params.dt_s);
+                pending = false;
+            }
+            state.evaluate_forces(params, sink, false);
+            state.forces_ready = true;
+        }
+        let max2 = integrate::kick_drift(
+            &mut state.particles,
+            params.dt_s,
+            &state.neighbours.reference_m,
+            &mut state.packed,
+            pending,
+        );
+        if !max2.is_finite() {
+            let bad = state
+                .particles
+                .position_m
+                .iter()
+                .position(|x| !x.iter().all(|v| v.is_finite()))
+                .unwrap_or(0);
+            return Err(DemError::NonFinite { particle: bad });
+        }
+        let half_skin = 0.5 * params.skin_m;
+        if max2 > half_skin * half_skin {
+            state.rebuild(params)?;
+        }
+        state.time_s += params.dt_s;
+        // Nothing moved the particles since kick_drift packed them.
+        state.evaluate_forces(params, sink, true);
+        state.step_count += 1;
+        pending = left > 0;
+        if !pending {
+            integrate::kick(&mut state.particles, params.dt_s);
+        }
     }
-    let max2 = integrate::kick_drift(
-        &mut state.particles,
-        params.dt_s,
-        &state.neighbours.reference_m,
-        &mut state.packed,
-    );
-    if !max2.is_finite() {
-        let bad = state
-            .particles
-            .position_m
-            .iter()
-            .position(|x| !x.iter().all(|v| v.is_finite()))
-            .unwrap_or(0);
-        return Err(DemError::NonFinite { particle: bad });
-    }
-    let half_skin = 0.5 * params.skin_m;
-    if max2 > half_skin * half_skin {
-        state.rebuild(params)?;
-    }
-    state.time_s += params.dt_s;
-    // Nothing moved the particles since kick_drift packed them.
-    state.evaluate_forces(params, sink, true);
-    integrate::kick(&mut state.particles, params.dt_s);
-    state.step_count += 1;
     sink.step_done(state);
     Ok(())
 }

@@ -45,6 +45,9 @@ pub struct ScalingRow {
     pub particle_steps_per_s: f64,
     /// Mean particle–particle contacts per particle after the timed steps.
     pub mean_contacts: f64,
+    /// Listed pairs (touching or within the skin) per particle after the
+    /// timed steps: what the pair pass sweeps.
+    pub listed_pairs_per_particle: f64,
     /// The process' peak resident memory after this size, per particle
     /// (bytes; Linux's VmHWM), when the system says.
     pub peak_bytes_per_particle: Option<f64>,
@@ -74,9 +77,7 @@ fn params(tiles: usize) -> Result<Params> {
 pub fn settled_bed(steps: u64) -> Result<State> {
     let params = params(1)?;
     let mut state = State::new(benchmark::grains()?);
-    for _ in 0..steps {
-        dem::step(&params, &mut state, &mut ())?;
-    }
+    dem::advance(&params, &mut state, &mut (), steps)?;
     Ok(state)
 }
 
@@ -149,13 +150,9 @@ pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<Scaling
             let n = state.particles.len();
             progress(&format!("{n} particles, {w} worker(s)"));
             let (wall_s, contacts) = pool.install(|| -> Result<(f64, f64)> {
-                for _ in 0..WARM_UP_STEPS {
-                    dem::step(&params, &mut state, &mut ())?;
-                }
+                dem::advance(&params, &mut state, &mut (), WARM_UP_STEPS)?;
                 let t0 = Instant::now();
-                for _ in 0..opts.steps {
-                    dem::step(&params, &mut state, &mut ())?;
-                }
+                dem::advance(&params, &mut state, &mut (), opts.steps)?;
                 Ok((t0.elapsed().as_secs_f64(), state.mean_contacts()))
             })?;
             let kick_s = pool.install(|| {
@@ -171,6 +168,7 @@ pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<Scaling
                 workers: w,
                 particle_steps_per_s: n as f64 * opts.steps as f64 / wall_s,
                 mean_contacts: contacts,
+                listed_pairs_per_particle: state.neighbours().pair_count() as f64 / n as f64,
                 peak_bytes_per_particle: peak_rss_bytes().map(|b| b / n as f64),
                 kick_ns_per_particle: kick_s * 1e9 / (n as f64 * opts.steps as f64),
             });
@@ -185,7 +183,7 @@ pub fn table(rows: &[ScalingRow]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "particles  workers  M particle-steps/s  ns per particle-step  vs smallest  contacts  peak B/particle  kick ns/particle  kick GB/s"
+        "particles  workers  M particle-steps/s  ns per particle-step  vs smallest  contacts  listed pairs/particle  peak B/particle  kick ns/particle  kick GB/s"
     );
     for r in rows {
         let first = rows
@@ -194,13 +192,14 @@ pub fn table(rows: &[ScalingRow]) -> String {
             .map_or(r.particle_steps_per_s, |x| x.particle_steps_per_s);
         let _ = writeln!(
             s,
-            "{:>9}  {:>7}  {:>18.2}  {:>20.1}  {:>10.2}×  {:>8.3}  {:>15}  {:>16.2}  {:>9.1}",
+            "{:>9}  {:>7}  {:>18.2}  {:>20.1}  {:>10.2}×  {:>8.3}  {:>21.3}  {:>15}  {:>16.2}  {:>9.1}",
             r.particles,
             r.workers,
             r.particle_steps_per_s / 1e6,
             1e9 / r.particle_steps_per_s,
             first / r.particle_steps_per_s,
             r.mean_contacts,
+            r.listed_pairs_per_particle,
             r.peak_bytes_per_particle
                 .map_or("-".to_string(), |b| format!("{b:.0}")),
             r.kick_ns_per_particle,

@@ -13,7 +13,8 @@ pub trait Sink {
     /// (s) is the time the forces are for.
     fn add_external_forces(&mut self, _time_s: f64, _particles: &mut Particles) {}
 
-    /// Called at the end of each step.
+    /// Called at the end of each [`crate::step`], and once at the end of
+    /// an [`crate::advance`] over several steps.
     fn step_done(&mut self, _state: &State) {}
 }
 
