@@ -721,34 +721,7 @@ fn diagnose_skipping(
         // effect that pays on every count but ranks below the best form
         // is fitted together with it, and the two are added when the data
         // keep the effect beside the form.
-        let best_is_form = best.as_ref().is_some_and(|(f, _)| {
-            f.space
-                .effects
-                .last()
-                .is_some_and(|e| e.spec.kind.is_baseline_form())
-        });
-        if let (true, Some((effect_fit, _)), Some((form_fit, form_heldout))) =
-            (best_is_form, challenger.as_ref(), best.as_ref())
-        {
-            if let Some((fit, h, test)) = beside_form(
-                basis,
-                &data,
-                &masks,
-                opts,
-                &current,
-                (form_fit, form_heldout),
-                effect_fit,
-                1,
-            ) {
-                if let Some(c) = fits.iter_mut().find(|f| f.1.effect == test.effect) {
-                    c.1.beside_form = Some(test.clone());
-                }
-                if test.accepted {
-                    best = Some((fit, h));
-                    added = 2;
-                }
-            }
-        }
+        //
         // The same question the other way round: a skin or sand that is
         // not the model's can look like an effect (a skin law that unloads
         // differently looks like stress softening). When an effect ranks
@@ -757,10 +730,21 @@ fn diagnose_skipping(
         // the form must then pay on its own in the next round) if it keeps
         // its gain there, else the form is added instead, and the effect may
         // come back in a later round.
-        if let (false, Some((effect_fit, _)), Some((form_fit, form_heldout))) =
-            (best_is_form, best.as_ref(), rival.as_ref())
-        {
-            if let Some((_, _, test)) = beside_form(
+        let best_is_form = best.as_ref().is_some_and(|(f, _)| {
+            f.space
+                .effects
+                .last()
+                .is_some_and(|e| e.spec.kind.is_baseline_form())
+        });
+        // (the form, the effect, folds the pair may lose beyond an
+        // effect's, whether the form ranked first)
+        let contest = match (best_is_form, &best, &challenger, &rival) {
+            (true, Some(form), Some(effect), _) => Some((form, effect, 1, true)),
+            (false, Some(effect), _, Some(form)) => Some((form, effect, 0, false)),
+            _ => None,
+        };
+        if let Some(((form_fit, form_heldout), (effect_fit, _), spare, form_first)) = contest {
+            if let Some((fit, h, test)) = beside_form(
                 basis,
                 &data,
                 &masks,
@@ -768,13 +752,18 @@ fn diagnose_skipping(
                 &current,
                 (form_fit, form_heldout),
                 effect_fit,
-                0,
+                spare,
             ) {
                 if let Some(c) = fits.iter_mut().find(|f| f.1.effect == test.effect) {
                     c.1.beside_form = Some(test.clone());
                 }
-                if !test.accepted {
-                    best = rival.clone();
+                match (form_first, test.accepted) {
+                    (true, true) => {
+                        best = Some((fit, h));
+                        added = 2;
+                    }
+                    (false, false) => best = rival.clone(),
+                    _ => {}
                 }
             }
         }
