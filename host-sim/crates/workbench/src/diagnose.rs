@@ -142,8 +142,8 @@ pub struct Candidate {
 }
 
 /// A physical effect fitted together with a form that ranked above it (or
-/// that also paid when the effect ranked first):
-/// whether the data keep the effect beside the form.
+/// that also paid when the effect ranked first): whether the data keep the
+/// effect beside the form.
 #[derive(Clone, Debug, Serialize)]
 pub struct BesideForm {
     /// The physical effect.
@@ -446,10 +446,11 @@ fn carried_bic(fit: &Fit, data: &Dataset) -> Option<f64> {
 /// beside the form: ΔBIC and held-out gain against the form alone, as for
 /// any candidate, held-out better in every fold but `spare_folds` (1 where
 /// the form ranked first: the pair holds a form, which may be worse in one
-/// fold; 0 where the effect did: then the effect is what is judged), none of
-/// the effect's parameters on a bound. The change rule is not applied: a form that can take up the
-/// effect's signature leaves only a small change to the effect, which the
-/// effect's own fit against `current` has shown to be above the noise.
+/// fold; 0 where the effect did: then the effect is what is judged), none
+/// of the effect's parameters on a bound. The change rule is not applied:
+/// a form that can take up the effect's signature leaves only a small
+/// change to the effect, which the effect's own fit against `current` has
+/// shown to be above the noise.
 #[allow(clippy::too_many_arguments)]
 fn beside_form(
     basis: &std::sync::Arc<RigBasis>,

@@ -98,9 +98,6 @@ impl Effect for MullinsSoftening {
     fn spec(&self) -> &'static EffectSpec {
         &SPEC
     }
-    fn initial_state(&self, _ctx: &StepContext) -> EffectState {
-        [0.0, 0.0]
-    }
     fn skin_kpa(
         &self,
         state: &mut EffectState,
