@@ -5,7 +5,8 @@
 #
 # Usage: scripts/bench-dem.sh [steps-scale]   (default 1 = the full problem)
 # Needs: cargo; python3 (gen_lattice.py, the peer's input); liggghts and
-# mpirun (`apt-get install -y liggghts`), else only ours is measured.
+# mpirun (`apt-get install -y liggghts`; run as root, the script installs
+# them), else only ours is measured.
 set -euo pipefail
 
 scale="${1:-1}"
@@ -31,6 +32,12 @@ for w in 1 2; do
     echo "$out"
     ours[$w]=$(sed -n 's/.*overall_psps=\([0-9.]*\).*/\1/p' <<<"$out")
 done
+
+# The peer comes from Debian's package; install it where this script may.
+if ! command -v liggghts >/dev/null && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+    echo "== installing Debian's liggghts =="
+    apt-get install -y -q liggghts >/dev/null || true
+fi
 
 if command -v liggghts >/dev/null; then
     tmp=$(mktemp -d)
