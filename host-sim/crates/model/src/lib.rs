@@ -292,8 +292,14 @@ impl RigModel {
         let diameter = f64::from(self.basis.zone.diameter_mm(volume as f32));
         let mut skin =
             self.params.skin_stiffness_scale * self.basis.membrane.pressure_kpa(diameter);
-        for (e, st) in self.built.iter().zip(effects.iter_mut()) {
-            skin = e.skin_kpa(st, ctx, diameter, skin);
+        // The baseline's forms reshape the elastic law itself; the physical
+        // effects (softening, a viscous overstress) act on that law's
+        // pressure, so the forms go first whatever the registry order.
+        for forms in [true, false] {
+            let hooks = self.built.iter().zip(effects.iter_mut()).zip(&self.effects);
+            for ((e, st), _) in hooks.filter(|(_, i)| i.spec.kind.is_baseline_form() == forms) {
+                skin = e.skin_kpa(st, ctx, diameter, skin);
+            }
         }
         let mut history = state.sand;
         let sand = match (&self.sand, history.as_mut()) {

@@ -54,6 +54,16 @@ pub struct DiagnoseOptions {
     pub min_excess_explained: f64,
     /// Most physical effects added (forms of the baseline come on top).
     pub max_effects: usize,
+    /// A physical effect must change the model's reading by at least this
+    /// many noise floors (RMS over the fitted samples): below that its
+    /// size is not worth a name, however many samples make it significant.
+    /// A quarter of the noise: on the outside truth's controls, once the
+    /// baseline's forms are in (the sand's unloading floor among them),
+    /// every candidate is already refused by ΔBIC, its folds or
+    /// [`EffectSpec::indistinct`], while true 5 mL bubbles that the forms
+    /// partly mimic change the reading by 0.34–0.56 noise floors and a
+    /// true Mullins softening by 0.75.
+    pub min_change_factor: f64,
     /// A physical effect that pays on every count and changes the reading
     /// by at least this many noise floors is fitted together with a form
     /// that ranks above it (see [`BesideForm`]). Twice the noise: a
@@ -86,6 +96,7 @@ impl Default for DiagnoseOptions {
             max_folds_worse: 0,
             min_excess_explained: 0.33,
             max_effects: 4,
+            min_change_factor: 0.25,
             challenge_change_factor: 2.0,
         }
     }
@@ -120,11 +131,9 @@ pub struct Candidate {
     /// then either.
     pub indistinct: Option<String>,
     /// RMS change of the model's reading it makes over the fitted samples
-    /// (kPa); below the noise floor a physical effect is not accepted: a
-    /// change smaller than one reading's noise cannot be told from what
-    /// the baseline's forms leave of a sand or skin that is not the
-    /// model's. Forms of the baseline are exempt: taking up the baseline's
-    /// misfit, however small, is their job.
+    /// (kPa); below [`DiagnoseOptions::min_change_factor`] noise floors a
+    /// physical effect is not accepted. Forms of the baseline are exempt:
+    /// taking up the baseline's misfit, however small, is their job.
     pub change_rms_kpa: f64,
     /// Every reason of its own that keeps it out, in words (empty when
     /// only the shared thresholds, ΔBIC, held-out gain and excess
@@ -171,11 +180,11 @@ impl Candidate {
     /// ([`Candidate::carried_bic`]), parameters at a bound, a size not
     /// told apart from rig.toml, held-out worse in more folds than
     /// `folds_worse` allows, a physical effect whose change of the
-    /// reading is below `noise_kpa`.
+    /// reading is below `min_change_kpa`.
     fn own_refusals(
         &self,
         form: bool,
-        noise_kpa: f64,
+        min_change_kpa: f64,
         folds_worse: usize,
         min_carried_bic: f64,
     ) -> Vec<String> {
@@ -198,9 +207,9 @@ impl Candidate {
                 why.push(format!("held-out better in {better} of {folds} folds"));
             }
         }
-        if !form && self.score < 0.0 && self.change_rms_kpa < noise_kpa {
+        if !form && self.score < 0.0 && self.change_rms_kpa < min_change_kpa {
             why.push(format!(
-                "changes the reading by {:.4} kPa RMS, below the noise",
+                "changes the reading by {:.4} kPa RMS, below {min_change_kpa:.4} kPa, too little to name",
                 self.change_rms_kpa
             ));
         }
@@ -698,7 +707,12 @@ fn diagnose_skipping(
                 cand.heldout_folds_better = Some([h.better_folds(&current_heldout), h.folds.len()]);
                 held = Some(h);
             }
-            cand.refusals = cand.own_refusals(form, noise, folds_worse, -opts.max_delta_bic);
+            cand.refusals = cand.own_refusals(
+                form,
+                opts.min_change_factor * noise,
+                folds_worse,
+                -opts.max_delta_bic,
+            );
             let Some(h) = held else { continue };
             let pays = opts.gains(cand.score, h.overall, current_heldout.overall)
                 && cand.excess_explained >= opts.min_excess_explained

@@ -88,41 +88,44 @@ fn the_outside_control_gets_no_physical_effect() {
 
 #[test]
 fn two_forms_that_share_the_misfit_are_added_together() {
-    // Seed 2 with [skin]: after the depth and unloading forms, sand_rise
-    // and skin_shape each take just under a third of what is left above
-    // the noise; together they take it down to the noise.
-    let mut truth = Truth::new(Vec::new(), 2);
-    truth.skin_known = true;
+    // Seed 1 without [skin], a drift outside the library: in the first
+    // round no candidate takes a third of the misfit alone, while the
+    // unloading and skin-shape forms pay on every other count; judged
+    // together they do, and go in in one round. No physical effect
+    // follows, and the drift is reported.
+    let truth = Truth::new(vec![Hidden::Drift(0.2, 9.0)], 1);
     let (_, d) = diagnosed(&truth);
-    for form in ["sand_rise", "skin_shape"] {
-        assert!(d.selected.iter().any(|s| s == form), "{:?}", d.selected);
-    }
-    assert!(effects(&d).is_empty(), "{:?}", d.selected);
-    assert!(
-        d.final_rmse_kpa <= 1.5 * d.noise_floor_kpa,
-        "{} vs {}",
-        d.final_rmse_kpa,
-        d.noise_floor_kpa
+    assert_eq!(
+        d.selected,
+        ["sand_unloading", "skin_shape"],
+        "{:?}",
+        d.selected
     );
+    // One round chose both: the first round and the one that found
+    // nothing more to add.
+    assert_eq!(d.later_rounds.len(), 1, "{:?}", d.selected);
+    assert!(d.unexplained.is_some());
 }
 
 #[test]
-fn a_bubble_is_kept_beside_the_form_that_outranks_it() {
-    // Seed 1 with [skin]: the 5 mL of air pays on every count but ranks
-    // below the sand's unloading form, which can take up its give on the
-    // shrink; fitted together, the data keep both.
-    let mut truth = Truth::new(vec![Hidden::TrappedAir(5.0)], 1);
-    truth.skin_known = true;
+fn a_bubble_the_forms_partly_mimic_is_still_named() {
+    // Seed 1 without [skin]: the forms of the baseline take up most of the
+    // 5 mL bubble's give (a softer unloading, a skin that stiffens), so
+    // once they are in the air changes the reading by less than one noise
+    // floor; it still pays on every count and is named at its volume.
+    let truth = Truth::new(vec![Hidden::TrappedAir(5.0)], 1);
     let (_, d) = diagnosed(&truth);
     assert_eq!(effects(&d), ["trapped_air"], "{:?}", d.selected);
     let v = primary(&d, "trapped_air", "gas_volume_ml").unwrap();
     assert!((v - 5.0).abs() <= 0.15 * 5.0, "{v}");
-    let kept = std::iter::once(&d.candidates)
+    let change = std::iter::once(&d.candidates)
         .chain(&d.later_rounds)
         .flatten()
-        .filter_map(|c| c.beside_form.as_ref())
-        .any(|t| t.effect == "trapped_air" && t.accepted);
-    assert!(kept, "{:?}", d.selected);
+        .filter(|c| c.effect == "trapped_air" && c.refusals.is_empty())
+        .map(|c| c.change_rms_kpa)
+        .next_back()
+        .unwrap();
+    assert!(change < d.noise_floor_kpa, "{change}");
 }
 
 #[test]
@@ -139,19 +142,39 @@ fn an_outside_line_loss_is_named_within_15_percent() {
 
 #[test]
 fn an_effect_that_outranks_a_form_must_keep_its_gain_beside_it() {
-    // Second rig, seed 1, [skin], nothing hidden: a Mullins softening of
-    // 0.08 per unit of I1 − 3 outranks skin_shape by ΔBIC, but fitted
-    // beside it helps in 3 folds of 4 only; the form goes in instead.
-    let mut truth = Truth::second_rig(Vec::new(), 1);
+    // Second rig, seed 3, [skin], wall friction in the box: in the first
+    // round the arching outranks the depth form and keeps its gain beside
+    // it (every fold better), so it goes in; later a Mullins softening
+    // outranks skin_shape but beside it helps in 3 folds of 4 only, so
+    // the form goes in instead and the softening stays out.
+    let mut truth = Truth::second_rig(vec![Hidden::WallFriction(0.18)], 3);
     truth.skin_known = true;
     let (_, d) = diagnosed(&truth);
-    assert!(effects(&d).is_empty(), "{:?}", d.selected);
-    let refused = std::iter::once(&d.candidates)
+    let contests: Vec<_> = std::iter::once(&d.candidates)
         .chain(&d.later_rounds)
         .flatten()
         .filter_map(|c| c.beside_form.as_ref())
-        .any(|t| t.effect == "mullins_softening" && !t.accepted);
-    assert!(refused, "{:?}", d.selected);
+        .map(|t| (t.effect.as_str(), t.form.as_str(), t.accepted))
+        .collect();
+    assert!(
+        contests.contains(&("wall_arching", "sand_depth_power", true)),
+        "{contests:?}"
+    );
+    assert!(
+        contests.contains(&("mullins_softening", "skin_shape", false)),
+        "{contests:?}"
+    );
+    assert!(
+        d.selected.iter().any(|s| s == "skin_shape"),
+        "{:?}",
+        d.selected
+    );
+    assert!(effects(&d).contains(&"wall_arching"), "{:?}", d.selected);
+    assert!(
+        !effects(&d).contains(&"mullins_softening"),
+        "{:?}",
+        d.selected
+    );
 }
 
 #[test]

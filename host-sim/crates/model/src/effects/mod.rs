@@ -13,7 +13,9 @@
 //!    compression). The step solves p = P(pump − Σ held(p)) implicitly.
 //! 2. [`Effect::effective_depth_mm`]: the depth whose σ'v = γ'·h the sand
 //!    law sees (arching against the container walls), once per run.
-//! 3. [`Effect::skin_kpa`]: the skin's pressure, from its elastic value.
+//! 3. [`Effect::skin_kpa`]: the skin's pressure, from its elastic value;
+//!    the baseline's forms first (they reshape the elastic law), then the
+//!    physical effects, which act on the reshaped law's pressure.
 //! 4. [`Effect::reading_kpa`]: what the sensor reads, from the internal
 //!    pressure.
 //!

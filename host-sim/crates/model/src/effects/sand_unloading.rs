@@ -4,15 +4,17 @@
 //! coefficient Ka. A sand that relaxes more softly (it follows the
 //! shrinking zone less, a looser or more compressible bed) or more
 //! steeply breaks that; here the slope is f·s, and the branch may bend
-//! from the straight line into a curve towards the same floor (a sand
-//! whose push decays exponentially, or with a longer tail, as it unloads).
+//! from the straight line into a curve towards its floor (a sand whose
+//! push decays exponentially, or with a longer tail, as it unloads), and
+//! the floor itself may lie above or below Rankine's active push (a bed
+//! that keeps locked-in stress, or one that relaxes past it).
 
 use super::{value, Effect, EffectKind, EffectSpec};
 use crate::params::ParamSpec;
 use rig::Rig;
 use sand::SandParams;
 
-const PARAMS: [ParamSpec; 2] = [
+const PARAMS: [ParamSpec; 3] = [
     ParamSpec {
         name: "slope_factor",
         unit: "-",
@@ -32,17 +34,30 @@ const PARAMS: [ParamSpec; 2] = [
         description:
             "shape towards the floor: 1 straight (the law's own), 0 exponential, < 0 a longer tail",
     },
+    ParamSpec {
+        name: "floor_factor",
+        unit: "-",
+        lower: 0.2,
+        upper: 3.0,
+        default: 1.0,
+        lower_is_law: false,
+        description: "factor on the floor the push falls to, the law's active coefficient Ka (1: the law's own; never above the at-rest coefficient)",
+    },
 ];
 
 /// Registry row.
 pub static SPEC: EffectSpec = EffectSpec {
     name: "sand_unloading",
-    description: "Baseline form: as the zone shrinks the sand's push falls f times as fast as the sand law's unloading branch says (f = 1), along a straight line or a curve to the same floor.",
+    description: "Baseline form: as the zone shrinks the sand's push falls f times as fast as the sand law's unloading branch says (f = 1), along a straight line or a curve to a floor that may differ from the law's active push.",
     signature: "misfit only in the shrink phases of buried runs, none in free water or while the zone swells, growing with depth",
     params: &PARAMS,
     kind: EffectKind::BaselineForm {
         words: |v| {
-            let (f, c) = (value(v, &PARAMS, 0), value(v, &PARAMS, 1));
+            let (f, c, floor) = (
+                value(v, &PARAMS, 0),
+                value(v, &PARAMS, 1),
+                value(v, &PARAMS, 2),
+            );
             let shape = if c > 0.75 {
                 "along a nearly straight line to its floor".to_owned()
             } else if c > -0.25 {
@@ -50,8 +65,13 @@ pub static SPEC: EffectSpec = EffectSpec {
             } else {
                 format!("along a curve with a long tail above its floor (curvature {c:.2})")
             };
+            let floor = if (floor - 1.0).abs() < 0.05 {
+                String::new()
+            } else {
+                format!(", which lies {floor:.2} times the law's active push")
+            };
             format!(
-                "the sand unloads {} than the model at first (its push falls {f:.2} times as fast as the zone starts to shrink), {shape}",
+                "the sand unloads {} than the model at first (its push falls {f:.2} times as fast as the zone starts to shrink), {shape}{floor}",
                 if f < 1.0 { "more softly" } else { "more steeply" }
             )
         },
@@ -60,6 +80,7 @@ pub static SPEC: EffectSpec = EffectSpec {
         Box::new(SandUnloading {
             slope_factor: value(v, &PARAMS, 0),
             curvature: value(v, &PARAMS, 1),
+            floor_factor: value(v, &PARAMS, 2),
         })
     },
     not_applicable: |rig: &Rig| rig.sand.is_none().then_some("rig.toml has no [sand]"),
@@ -73,6 +94,10 @@ pub struct SandUnloading {
     pub slope_factor: f64,
     /// [`sand::Unloading::curvature`] of the branch.
     pub curvature: f64,
+    /// Factor on the floor, the law's active coefficient Ka (capped at the
+    /// at-rest coefficient): a bed that keeps more (or less) of its push
+    /// once unloaded than Rankine's active state.
+    pub floor_factor: f64,
 }
 
 impl Effect for SandUnloading {
@@ -83,6 +108,8 @@ impl Effect for SandUnloading {
         SandParams {
             unloading_stiffness_ratio: self.slope_factor * params.unloading_stiffness_ratio,
             unloading_curvature: self.curvature,
+            active_coefficient: (self.floor_factor * params.active_coefficient)
+                .min(params.at_rest_coefficient),
             ..params
         }
     }
