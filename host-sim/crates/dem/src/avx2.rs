@@ -1,11 +1,15 @@
-//! The pair pass's overlap test in its AVX2 copy, four listed pairs at
-//! once. A [`Sphere`] row is four `f64` (x, y, z, r), so each pair's
-//! separation and radius sum take one 256-bit subtraction and addition,
-//! and a 4×4 transpose (moves only) lines the four pairs' squared terms up
-//! for the sums. The operations are the scalar test's, in its order, and
-//! the nearest image uses an exact `f64::round`, so the decisions are the
-//! same. Every function here must run only where the CPU has AVX2 (the
-//! pair pass's AVX2 copy, entered through `Simd::Avx2`).
+//! The pair pass's overlap test across periodic faces in its AVX2 copy,
+//! four listed pairs at once. The scalar test rounds each of a pair's
+//! three separations to its nearest image (`f64::round`, a short sequence
+//! each); here one exact emulation serves three axes and four pairs. A
+//! [`Sphere`] row is four `f64` (x, y, z, r), so each pair's separation
+//! and radius sum take one 256-bit subtraction and addition, and a 4×4
+//! transpose (moves only) lines the four pairs' squared terms up for the
+//! sums. The operations are the scalar test's, in its order, so the
+//! decisions are the same. Without periodic axes the scalar test is as
+//! fast and is kept.
+//! Every function here must run only where the CPU has AVX2 (the pair
+//! pass's AVX2 copy, entered through `Simd::Avx2`).
 
 use std::arch::x86_64::*;
 
@@ -62,13 +66,12 @@ fn shift_row(d: __m256d, images: &Images) -> __m256d {
     _mm256_mul_pd(minus_length, round(_mm256_mul_pd(d, load(&inverse))))
 }
 
-/// Bit l set where spheres `i[l]` and `j[l]` of `p` overlap (with
-/// `PERIODIC`, j at its nearest image): [`Sphere::overlaps`] (or
-/// `overlaps_nearest`) of four pairs, the same operations in the same
-/// order, so the same decisions.
+/// Bit l set where spheres `i[l]` and `j[l]` of `p` overlap, j at its
+/// nearest image: [`Sphere::overlaps_nearest`] of four pairs, the same
+/// operations in the same order, so the same decisions.
 #[target_feature(enable = "avx2")]
 #[inline]
-pub(crate) fn overlap_mask<const PERIODIC: bool>(
+pub(crate) fn overlap_mask_nearest(
     p: &[Sphere],
     i: [usize; 4],
     j: [usize; 4],
@@ -76,10 +79,8 @@ pub(crate) fn overlap_mask<const PERIODIC: bool>(
 ) -> usize {
     let squares = std::array::from_fn(|l| {
         let (a, b) = (load(&p[i[l]].0), load(&p[j[l]].0));
-        let mut d = _mm256_sub_pd(a, b);
-        if PERIODIC {
-            d = _mm256_add_pd(d, shift_row(d, images));
-        }
+        let d = _mm256_sub_pd(a, b);
+        let d = _mm256_add_pd(d, shift_row(d, images));
         // [dx, dy, dz, r_i + r_j], squared.
         let v = _mm256_blend_pd::<0b1000>(d, _mm256_add_pd(a, b));
         _mm256_mul_pd(v, v)

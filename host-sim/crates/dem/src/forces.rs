@@ -138,8 +138,8 @@ impl<'a> PairRun<'a> {
     /// Positions in `slots` of the overlapping pairs into `touching`,
     /// returning how many; pairs apart are marked closed. No branch on the
     /// outcome: which pairs touch is a coin toss to the branch predictor.
-    /// With `AVX2` (only in the pass's AVX2 copy) four pairs are tested at
-    /// once, with the same decisions.
+    /// With periodic axes and `AVX2` (only in the pass's AVX2 copy) four
+    /// pairs are tested at once, with the same decisions.
     #[inline(always)]
     fn sort_out<const PERIODIC: bool, const AVX2: bool>(
         &mut self,
@@ -151,14 +151,14 @@ impl<'a> PairRun<'a> {
         let mut count = 0;
         let mut done = 0;
         #[cfg(target_arch = "x86_64")]
-        if AVX2 {
+        if AVX2 && PERIODIC {
             for (q, quad) in slots.chunks_exact(4).enumerate() {
                 let s: [usize; 4] = std::array::from_fn(|l| quad[l] as usize);
                 let i = s.map(|s| self.pi[s] as usize);
                 let j = s.map(|s| self.pj[s] as usize);
                 // SAFETY: `AVX2` is set only in the AVX2 copy of the pass,
                 // which runs only where the CPU has AVX2.
-                let on = unsafe { super::avx2::overlap_mask::<PERIODIC>(p, i, j, images) };
+                let on = unsafe { super::avx2::overlap_mask_nearest(p, i, j, images) };
                 let (at, n) = COMPRESS[on];
                 let base = (4 * q) as u32;
                 // count ≤ 4q, so the four stores fit (4q + 4 ≤ PAIR_CHUNK).
