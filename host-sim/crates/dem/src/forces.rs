@@ -23,24 +23,6 @@ use super::{split_lengths, Params};
 
 /// Pairs gathered and evaluated together (sized for the L1 cache).
 const PAIR_CHUNK: usize = 256;
-/// For each set of four overlap bits: the positions of the set bits,
-/// ascending (padded with 0), and how many there are.
-const COMPRESS: [([u8; 4], u8); 16] = {
-    let mut table = [([0u8; 4], 0u8); 16];
-    let mut m = 0;
-    while m < 16 {
-        let mut l = 0;
-        while l < 4 {
-            if m & (1 << l) != 0 {
-                table[m].0[table[m].1 as usize] = l as u8;
-                table[m].1 += 1;
-            }
-            l += 1;
-        }
-        m += 1;
-    }
-    table
-};
 /// Particles per parallel task in the wall pass (also fixes the order of
 /// the wall-force partial sums, so totals do not depend on the thread count).
 const GATHER_CHUNK: usize = 512;
@@ -138,10 +120,8 @@ impl<'a> PairRun<'a> {
     /// Positions in `slots` of the overlapping pairs into `touching`,
     /// returning how many; pairs apart are marked closed. No branch on the
     /// outcome: which pairs touch is a coin toss to the branch predictor.
-    /// With periodic axes and `AVX2` (only in the pass's AVX2 copy) four
-    /// pairs are tested at once, with the same decisions.
     #[inline(always)]
-    fn sort_out<const PERIODIC: bool, const AVX2: bool>(
+    fn sort_out<const PERIODIC: bool>(
         &mut self,
         p: &[Sphere],
         images: &Images,
@@ -149,28 +129,7 @@ impl<'a> PairRun<'a> {
         touching: &mut [u32; PAIR_CHUNK],
     ) -> usize {
         let mut count = 0;
-        let mut done = 0;
-        #[cfg(target_arch = "x86_64")]
-        if AVX2 && PERIODIC {
-            for (q, quad) in slots.chunks_exact(4).enumerate() {
-                let s: [usize; 4] = std::array::from_fn(|l| quad[l] as usize);
-                let i = s.map(|s| self.pi[s] as usize);
-                let j = s.map(|s| self.pj[s] as usize);
-                // SAFETY: `AVX2` is set only in the AVX2 copy of the pass,
-                // which runs only where the CPU has AVX2.
-                let on = unsafe { super::avx2::overlap_mask_nearest(p, i, j, images) };
-                let (at, n) = COMPRESS[on];
-                let base = (4 * q) as u32;
-                // count ≤ 4q, so the four stores fit (4q + 4 ≤ PAIR_CHUNK).
-                touching[count..count + 4].copy_from_slice(&at.map(|a| base + u32::from(a)));
-                count += usize::from(n);
-                for (l, &s) in s.iter().enumerate() {
-                    self.open[s] &= ((on >> l) & 1) as u8;
-                }
-            }
-            done = slots.len() / 4 * 4;
-        }
-        for (n, &s) in slots.iter().enumerate().skip(done) {
+        for (n, &s) in slots.iter().enumerate() {
             let s = s as usize;
             let on = overlapping::<PERIODIC>(p, self.pi[s] as usize, self.pj[s] as usize, images);
             touching[count] = n as u32;
@@ -474,29 +433,17 @@ impl PairRun<'_> {
     /// run starts at list index `k0`) into `out`, zero when apart.
     #[inline(always)]
     fn straddling(&mut self, x: &Inputs, k0: usize, mine: &[u32], out: &mut [ContactForce]) {
-        self.straddling_with::<false>(x, k0, mine, out)
-    }
-
-    /// [`PairRun::straddling`], in the AVX2 copy with `AVX2`.
-    #[inline(always)]
-    fn straddling_with<const AVX2: bool>(
-        &mut self,
-        x: &Inputs,
-        k0: usize,
-        mine: &[u32],
-        out: &mut [ContactForce],
-    ) {
         if x.images.any() {
-            self.straddling_in::<true, AVX2>(x, k0, mine, out)
+            self.straddling_in::<true>(x, k0, mine, out)
         } else {
-            self.straddling_in::<false, AVX2>(x, k0, mine, out)
+            self.straddling_in::<false>(x, k0, mine, out)
         }
     }
 
     /// [`PairRun::straddling`] for a box with (`PERIODIC`) or without
     /// periodic axes.
     #[inline(always)]
-    fn straddling_in<const PERIODIC: bool, const AVX2: bool>(
+    fn straddling_in<const PERIODIC: bool>(
         &mut self,
         x: &Inputs,
         k0: usize,
@@ -510,8 +457,7 @@ impl PairRun<'_> {
                 *s = k - k0 as u32;
             }
             let slots = &slots[..chunk.len()];
-            let count =
-                self.sort_out::<PERIODIC, AVX2>(&x.packed.sphere, x.images, slots, &mut touching);
+            let count = self.sort_out::<PERIODIC>(&x.packed.sphere, x.images, slots, &mut touching);
             out.fill(ContactForce::default());
             let which = &touching[..count];
             let mut w = 0;
@@ -525,7 +471,7 @@ impl PairRun<'_> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn straddling_avx2(&mut self, x: &Inputs, k0: usize, mine: &[u32], out: &mut [ContactForce]) {
-        self.straddling_with::<true>(x, k0, mine, out)
+        self.straddling(x, k0, mine, out)
     }
 
     /// The forces on block `lo..hi` (`f`, `t` from `lo`): body force, the
@@ -544,26 +490,10 @@ impl PairRun<'_> {
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
-        self.block_with::<false>(x, range, k0, incoming, cursor, f, t)
-    }
-
-    /// [`PairRun::block`], in the AVX2 copy with `AVX2`.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn block_with<const AVX2: bool>(
-        &mut self,
-        x: &Inputs,
-        range: (usize, usize),
-        k0: usize,
-        incoming: &[u32],
-        cursor: usize,
-        f: &mut [Vector3<f64>],
-        t: &mut [Vector3<f64>],
-    ) {
         if x.images.any() {
-            self.block_in::<true, AVX2>(x, range, k0, incoming, cursor, f, t)
+            self.block_in::<true>(x, range, k0, incoming, cursor, f, t)
         } else {
-            self.block_in::<false, AVX2>(x, range, k0, incoming, cursor, f, t)
+            self.block_in::<false>(x, range, k0, incoming, cursor, f, t)
         }
     }
 
@@ -571,7 +501,7 @@ impl PairRun<'_> {
     /// axes.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn block_in<const PERIODIC: bool, const AVX2: bool>(
+    fn block_in<const PERIODIC: bool>(
         &mut self,
         x: &Inputs,
         (lo, hi): (usize, usize),
@@ -608,8 +538,7 @@ impl PairRun<'_> {
                 *s = (s0 + n) as u32;
             }
             let slots = &slots[..m];
-            let count =
-                self.sort_out::<PERIODIC, AVX2>(&x.packed.sphere, x.images, slots, &mut touching);
+            let count = self.sort_out::<PERIODIC>(&x.packed.sphere, x.images, slots, &mut touching);
             let (mut n_inside, mut n_outside) = (0, 0);
             for &w in &touching[..count] {
                 let is_inside = (pj[slots[w as usize] as usize] as usize) < hi;
@@ -664,7 +593,7 @@ impl PairRun<'_> {
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
-        self.block_with::<true>(x, range, k0, incoming, cursor, f, t)
+        self.block(x, range, k0, incoming, cursor, f, t)
     }
 }
 

@@ -27,8 +27,6 @@
 //! assert!(state.particles.velocity_m_s[0].z < 0.0);
 //! ```
 
-#[cfg(target_arch = "x86_64")]
-mod avx2;
 pub mod benchmark;
 pub mod contact;
 mod forces;

@@ -85,15 +85,6 @@ impl Images {
         std::array::from_fn(|a| -self.length_m[a] * (d[a] * self.inverse_per_m[a]).round())
     }
 
-    /// The periods (m) and their inverses (1/m) as rows of four, the
-    /// fourth zero (for the pair pass's four-wide copy of [`Images::shift`]).
-    #[inline(always)]
-    pub(crate) fn rows(&self) -> ([f64; 4], [f64; 4]) {
-        let [l0, l1, l2] = self.length_m;
-        let [i0, i1, i2] = self.inverse_per_m;
-        ([l0, l1, l2, 0.0], [i0, i1, i2, 0.0])
-    }
-
     /// The minimum-image separation `b − a` (m).
     #[inline(always)]
     pub fn separation(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> Vector3<f64> {
