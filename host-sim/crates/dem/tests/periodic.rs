@@ -110,6 +110,29 @@ fn a_periodic_bed_is_the_same_bits_for_any_thread_count() {
     assert!(one == run(3), "3 threads differ from 1");
 }
 
+#[test]
+fn a_periodic_bed_is_the_same_bits_in_either_instruction_set() {
+    // The pair pass's AVX2 copy (where the CPU has it) against the
+    // baseline one, pairs meeting across both periodic faces. The
+    // instruction set is process-wide, so the runs go one after the other.
+    let run = |simd: dem::Simd| {
+        dem::use_simd(simd);
+        let (params, mut state) = periodic_bed(6, [0.0, 0.0]);
+        for _ in 0..1_500 {
+            step(&params, &mut state, &mut ()).unwrap();
+        }
+        (
+            state.particles.position_m.clone(),
+            state.particles.angular_velocity_rad_s.clone(),
+        )
+    };
+    let best = dem::best_simd();
+    let base = run(dem::Simd::Baseline);
+    let fast = run(best);
+    dem::use_simd(best);
+    assert!(base == fast, "{best:?} differs from the baseline");
+}
+
 /// Two grains in a 10 mm box periodic along y meet obliquely (friction,
 /// so the tangential spring's history matters) around `y_meet` (m);
 /// returns grain 0's path relative to `y_meet` and grain 1's spin.
