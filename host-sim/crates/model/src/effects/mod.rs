@@ -97,6 +97,15 @@ pub struct StepContext {
     pub initial_diameter_mm: f64,
 }
 
+impl StepContext {
+    /// I1 − 3 of a plane-strain tube at outer diameter `diameter_mm`, hoop
+    /// stretch λ = D/D0: λ² + λ⁻² − 2 (0 at rest, positive either side).
+    pub fn hoop_invariant_excess(&self, diameter_mm: f64) -> f64 {
+        let l2 = (diameter_mm / self.initial_diameter_mm).powi(2);
+        l2 + 1.0 / l2 - 2.0
+    }
+}
+
 /// The step the effects' unit tests start from: free water, at rest, a
 /// line sensor, the paper's bore (670 mm²) and D0 (18.7 mm), t = dt = 0.
 #[cfg(test)]

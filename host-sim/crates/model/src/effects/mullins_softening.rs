@@ -83,17 +83,6 @@ impl MullinsSoftening {
     }
 }
 
-/// I1 − 3 of a plane-strain tube at outer diameter `diameter_mm` (rest
-/// `d0_mm`), counted only while stretched: a zone drawn below its rest
-/// diameter softens nothing.
-fn invariant_excess(diameter_mm: f64, d0_mm: f64) -> f64 {
-    if diameter_mm <= d0_mm {
-        return 0.0;
-    }
-    let l2 = (diameter_mm / d0_mm).powi(2);
-    l2 + 1.0 / l2 - 2.0
-}
-
 impl Effect for MullinsSoftening {
     fn spec(&self) -> &'static EffectSpec {
         &SPEC
@@ -105,7 +94,13 @@ impl Effect for MullinsSoftening {
         diameter_mm: f64,
         skin_kpa: f64,
     ) -> f64 {
-        let w = invariant_excess(diameter_mm, ctx.initial_diameter_mm);
+        // Counted only while stretched: a zone drawn below its rest
+        // diameter softens nothing.
+        let w = if diameter_mm > ctx.initial_diameter_mm {
+            ctx.hoop_invariant_excess(diameter_mm)
+        } else {
+            0.0
+        };
         let max = state[0].max(w);
         state[0] = max;
         skin_kpa * self.factor(max - w)

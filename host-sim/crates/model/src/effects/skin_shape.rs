@@ -85,8 +85,7 @@ impl Effect for SkinShape {
         diameter_mm: f64,
         skin_kpa: f64,
     ) -> f64 {
-        let l2 = (diameter_mm / ctx.initial_diameter_mm).powi(2);
-        let x = l2 + 1.0 / l2 - 2.0;
+        let x = ctx.hoop_invariant_excess(diameter_mm);
         skin_kpa * (1.0 + self.linear * x + self.quadratic * x * x).max(MIN_FACTOR)
     }
 }
