@@ -527,10 +527,7 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
     for (name, why) in &d.not_applicable {
         s += &format!("  {name:<22} not tried: {why}\n");
     }
-    let tests = std::iter::once(&d.candidates)
-        .chain(&d.later_rounds)
-        .flatten()
-        .filter_map(|c| c.beside_form.as_ref());
+    let tests = d.every_candidate().filter_map(|c| c.beside_form.as_ref());
     for t in tests {
         s += &format!(
             "{} fitted beside {}, a form that also pays: ΔBIC {:.1} against the form alone, held-out {:.4} kPa against {:.4}, better in {} of {} folds: {}\n",

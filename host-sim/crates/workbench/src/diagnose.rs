@@ -283,6 +283,15 @@ pub struct Diagnosis {
     pub samples: [usize; 2],
 }
 
+impl Diagnosis {
+    /// Every candidate scored, round by round in order, each round ranked.
+    pub fn every_candidate(&self) -> impl DoubleEndedIterator<Item = &Candidate> {
+        std::iter::once(&self.candidates)
+            .chain(&self.later_rounds)
+            .flatten()
+    }
+}
+
 /// Training masks of the cross-validation folds. Where every depth has
 /// two runs or more, whole runs are held out, never every run of one
 /// depth (leaving out the only run at a depth would test how a depth law
@@ -456,10 +465,11 @@ fn carried_bic(fit: &Fit, data: &Dataset) -> Option<f64> {
 /// any candidate, held-out better in every fold but `spare_folds` (1 where
 /// the form ranked first: the pair holds a form, which may be worse in one
 /// fold; 0 where the effect did: then the effect is what is judged), none
-/// of the effect's parameters on a bound. The change rule is not applied:
-/// a form that can take up the effect's signature leaves only a small
-/// change to the effect, which the effect's own fit against `current` has
-/// shown to be above the noise.
+/// of the effect's parameters on a bound. The change floor is not applied
+/// again: a form that can take up the effect's signature leaves only a
+/// small change to the effect, whose own fit against `current` has already
+/// passed it (and, where the form ranked first, changed the reading by
+/// [`DiagnoseOptions::challenge_change_factor`] noise floors).
 #[allow(clippy::too_many_arguments)]
 fn beside_form(
     basis: &std::sync::Arc<RigBasis>,

@@ -118,9 +118,8 @@ fn a_bubble_the_forms_partly_mimic_is_still_named() {
     assert_eq!(effects(&d), ["trapped_air"], "{:?}", d.selected);
     let v = primary(&d, "trapped_air", "gas_volume_ml").unwrap();
     assert!((v - 5.0).abs() <= 0.15 * 5.0, "{v}");
-    let change = std::iter::once(&d.candidates)
-        .chain(&d.later_rounds)
-        .flatten()
+    let change = d
+        .every_candidate()
         .filter(|c| c.effect == "trapped_air" && c.refusals.is_empty())
         .map(|c| c.change_rms_kpa)
         .next_back()
@@ -150,9 +149,8 @@ fn an_effect_that_outranks_a_form_must_keep_its_gain_beside_it() {
     let mut truth = Truth::second_rig(vec![Hidden::WallFriction(0.18)], 3);
     truth.skin_known = true;
     let (_, d) = diagnosed(&truth);
-    let contests: Vec<_> = std::iter::once(&d.candidates)
-        .chain(&d.later_rounds)
-        .flatten()
+    let contests: Vec<_> = d
+        .every_candidate()
         .filter_map(|c| c.beside_form.as_ref())
         .map(|t| (t.effect.as_str(), t.form.as_str(), t.accepted))
         .collect();
