@@ -107,6 +107,17 @@ pub struct Container {
     pub length_mm: f64,
 }
 
+impl Container {
+    /// Hydraulic radius of the box's cross-section (mm), area over
+    /// perimeter, W·L/(2(W + L)): the length over which its walls take
+    /// the sand's weight in Janssen's law (W/2 for a long slot); `None`
+    /// for a wide tank.
+    pub fn hydraulic_radius_mm(&self) -> Option<f64> {
+        self.width_mm
+            .map(|w| w * self.length_mm / (2.0 * (w + self.length_mm)))
+    }
+}
+
 /// `[pump]`: the syringe.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Pump {

@@ -89,14 +89,8 @@ impl Hidden {
             // The library's law is Ogden–Roxburgh's with the same
             // stand-in for W, fitted by its initial rate 1/(r·m).
             Hidden::Mullins(inv_r, m) => Some(("mullins_softening", "rate", inv_r / m)),
-            // The library's slot of width B sees 2·μk/B; a box W × L
-            // has the hydraulic radius R = WL/(2(W + L)) and sees μK/R:
-            // μk = μK·W/(2R).
-            Hidden::WallFriction(mu_k) => Some((
-                "wall_arching",
-                "mu_k",
-                mu_k * BOX_WIDTH_MM / (2.0 * box_hydraulic_radius_mm()),
-            )),
+            // Both take the box's hydraulic radius WL/(2(W + L)).
+            Hidden::WallFriction(mu_k) => Some(("wall_arching", "mu_k", mu_k)),
             Hidden::Drift(..) => None,
         }
     }
