@@ -553,6 +553,32 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
         }
     }
     s += &format!("final model parameters:\n{}", params_text(&d.params));
+    for c in &d.confounds {
+        let interval = |i: Option<[f64; 2]>| {
+            i.map_or("not determined".to_owned(), |[a, b]| {
+                format!("95 %: {} … {}", num(a), num(b))
+            })
+        };
+        s += &format!(
+            "{}: {} = {} ({}) holds only if the baseline is right where {} would change it; with that form also fitted (ΔBIC {:.1}) it is {} ({}). {}\n",
+            if c.interval_95_with_form.is_none() { "not separated" } else { "rests on a form" },
+            c.param,
+            num(c.value),
+            interval(c.interval_95),
+            c.form,
+            c.form_score,
+            num(c.value_with_form),
+            interval(c.interval_95_with_form),
+            if c.interval_95_with_form.is_none() {
+                format!(
+                    "These runs cannot tell the two apart; {} would.",
+                    c.tells_apart
+                )
+            } else {
+                "The form was not added (it fell short on the other counts), but the value depends on it.".to_owned()
+            }
+        );
+    }
     s += &format!(
         "final RMSE {:.4} kPa (held-out {:.4} kPa) vs noise floor {:.4} kPa\n",
         d.final_rmse_kpa, d.final_heldout_rmse_kpa, d.noise_floor_kpa

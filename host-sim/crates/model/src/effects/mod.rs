@@ -220,6 +220,10 @@ pub enum EffectKind {
     BaselineForm {
         /// That sentence, from the fitted values (in `params` order).
         words: fn(&[f64]) -> String,
+        /// Which runs would tell this form apart from an effect that the
+        /// data cannot separate from it, in words ("runs at a third sand
+        /// depth").
+        tells_apart: &'static str,
     },
 }
 

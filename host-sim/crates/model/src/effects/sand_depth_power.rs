@@ -38,6 +38,7 @@ pub static SPEC: EffectSpec = EffectSpec {
                 if n < 1.0 { "less" } else { "more" }
             )
         },
+        tells_apart: "runs at more sand depths, or in a box of another width",
     },
     build: |v| Box::new(SandDepthPower { exponent: value(v, &PARAMS, 0) }),
     not_applicable: |rig: &Rig| rig.sand.is_none().then_some("rig.toml has no [sand]"),

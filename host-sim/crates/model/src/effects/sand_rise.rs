@@ -34,6 +34,7 @@ pub static SPEC: EffectSpec = EffectSpec {
                 if c < 1.0 { "more gradually" } else { "more abruptly" }
             )
         },
+        tells_apart: "runs that expand the zone by other amounts",
     },
     build: |v| Box::new(SandRise { shape: value(v, &PARAMS, 0) }),
     not_applicable: |rig: &Rig| rig.sand.is_none().then_some("rig.toml has no [sand]"),

@@ -75,6 +75,7 @@ pub static SPEC: EffectSpec = EffectSpec {
                 if f < 1.0 { "more softly" } else { "more steeply" }
             )
         },
+        tells_apart: "runs that shrink the zone by other amounts, or hold it part-way down",
     },
     build: |v| {
         Box::new(SandUnloading {

@@ -54,6 +54,7 @@ pub static SPEC: EffectSpec = EffectSpec {
                 b / 3.0
             )
         },
+        tells_apart: "a free inflation in water over the whole stroke, or runs to other peak diameters",
     },
     build: |v| {
         Box::new(SkinShape {

@@ -128,6 +128,9 @@ pub struct Truth {
     pub noise_kpa: f64,
     /// Hidden effects.
     pub hidden: Vec<Hidden>,
+    /// The runs: sand cover (mm) and the flow rates (mL/s) of its two
+    /// cycles.
+    pub runs: Vec<(f64, [f64; 2])>,
     /// Seed.
     pub seed: u64,
 }
@@ -146,6 +149,7 @@ impl Truth {
             bore_mm: 26.7,
             noise_kpa: 0.02,
             hidden,
+            runs: vec![(0.0, [1.5, 3.0]), (50.0, [3.0, 1.5]), (120.0, [1.5, 3.0])],
             seed,
         }
     }
@@ -352,16 +356,14 @@ impl Truth {
         s
     }
 
-    /// The runs.csv text: three runs at 0, 50 and 120 mm, each two cycles
-    /// to 5 mL at 1.5 and 3 mL/s, sampled every 20 ms.
+    /// The runs.csv text: the runs of [`Truth::runs`] (three, at 0, 50 and
+    /// 120 mm, unless changed), each two cycles to 5 mL at its two flow
+    /// rates, sampled every 20 ms.
     pub fn runs_csv(&self) -> String {
         let mut rng = Pcg64Mcg::seed_from_u64(self.seed);
         let noise = Normal::new(0.0, self.noise_kpa).expect("noise");
         let mut s = String::from("run,t_s,depth_mm,volume_ml,pressure_kpa\n");
-        for (k, (depth, flows)) in [(0.0, [1.5, 3.0]), (50.0, [3.0, 1.5]), (120.0, [1.5, 3.0])]
-            .iter()
-            .enumerate()
-        {
+        for (k, (depth, flows)) in self.runs.iter().enumerate() {
             let id = format!("lab{}_{}mm", k + 1, depth);
             let dt = 0.02;
             let mut t = 0.0;
