@@ -199,6 +199,7 @@ pub fn typical(name: &str) -> Result<EffectInstance> {
         "skin_shape" => &[("stiffening_linear", 0.6), ("stiffening_quadratic", 0.3)],
         "sand_unloading" => &[("slope_factor", 0.3), ("curvature", 0.3)],
         "sand_rise" => &[("shape", 0.0)],
+        "skin_scale" => &[("factor", 0.96)],
         // Unknown names fail in `new`; other effects start at defaults.
         _ => &[],
     };

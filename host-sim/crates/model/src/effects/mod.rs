@@ -42,6 +42,7 @@ pub mod sand_unloading;
 pub mod sensor_gain;
 pub mod sensor_lag;
 pub mod sensor_offset;
+pub mod skin_scale;
 pub mod skin_shape;
 pub mod skin_viscoelasticity;
 pub mod trapped_air;
@@ -51,7 +52,7 @@ pub mod wall_arching;
 /// within a hook (volume, depth, skin: mullins before viscoelasticity;
 /// sensor: physical terms, then gain, then offset). A new effect is one
 /// file and one row here.
-pub static REGISTRY: [&EffectSpec; 14] = [
+pub static REGISTRY: [&EffectSpec; 15] = [
     &leak::SPEC,
     &trapped_air::SPEC,
     &wall_arching::SPEC,
@@ -70,6 +71,7 @@ pub static REGISTRY: [&EffectSpec; 14] = [
     &skin_shape::SPEC,
     &sand_unloading::SPEC,
     &sand_rise::SPEC,
+    &skin_scale::SPEC,
 ];
 
 /// Per-run memory of one effect (meaning is the effect's own).
@@ -419,6 +421,7 @@ mod tests {
             ("skin_shape", "stiffening_linear"),
             ("sand_unloading", "slope_factor"),
             ("sand_rise", "shape"),
+            ("skin_scale", "factor"),
         ];
         for (name, primary) in want {
             assert_eq!(EffectSpec::by_name(name).unwrap().params[0].name, primary);
@@ -440,7 +443,11 @@ mod tests {
                 .iter()
                 .enumerate()
                 .map(|(i, p)| match (spec.name, i) {
-                    ("sensor_gain" | "sand_depth_power" | "sand_unloading" | "sand_rise", 0) => 1.0,
+                    (
+                        "sensor_gain" | "sand_depth_power" | "sand_unloading" | "sand_rise"
+                        | "skin_scale",
+                        0,
+                    ) => 1.0,
                     (_, 0) => 0.0,
                     _ => p.default,
                 })
