@@ -260,7 +260,8 @@ pub struct SelectedEffect {
 /// primary parameter is no longer determined to
 /// [`DiagnoseOptions::separable_precision`] (wall arching on runs at two
 /// sand depths takes up a depth law that is not the model's as well), or
-/// the form pays in BIC and moves the primary out of its own 95 % interval
+/// the form pays in BIC and moves the primary by more than that precision
+/// and out of its own 95 % interval
 /// (the form then fell short of the held-out gain or the excess explained
 /// that adding it takes, but the effect's value depends on it).
 #[derive(Clone, Debug, Serialize)]
@@ -996,8 +997,8 @@ fn diagnose_skipping(
 /// determined to `precision` (a fraction of its value, either side, at
 /// 95 %) in `current` but, in a fit of `last` (the round scored against
 /// `current`) that adds a form of the baseline, either not determined so,
-/// or moved out of that fit's 95 % interval by a form that scores ΔBIC
-/// `max_delta_bic` or better.
+/// or moved by more than `precision` and out of that fit's 95 % interval
+/// by a form that scores ΔBIC `max_delta_bic` or better.
 fn confounds(
     current: &Fit,
     last: &[Candidate],
@@ -1033,7 +1034,11 @@ fn confounds(
             let Some(with) = cand.params.iter().find(|p| p.name == name) else {
                 continue;
             };
+            // Moved: out of the fit's own interval and by more than the
+            // precision (a precise effect moves out of its narrow interval
+            // beside any form that pays a little).
             let moved = cand.score <= max_delta_bic
+                && (with.value - alone.value).abs() > precision * alone.value.abs()
                 && with
                     .interval_95
                     .is_some_and(|[a, b]| !(a..=b).contains(&alone.value));
