@@ -659,9 +659,8 @@ fn diagnose_skipping(
     let mut rounds: Vec<Vec<Candidate>> = Vec::new();
     let mut selected: Vec<String> = Vec::new();
     let mut physical = 0;
-    // Whether the last round was scored against the final model (it found
-    // nothing to add).
-    let mut last_round_final = false;
+    // Found in the round that adds nothing: scored against the final model.
+    let mut final_confounds = Vec::new();
     loop {
         let on: Vec<&str> = current.space.effects.iter().map(|e| e.spec.name).collect();
         let tries: Vec<&'static EffectSpec> = applicable
@@ -910,14 +909,14 @@ fn diagnose_skipping(
                         && c.heldout_folds_better
                             .is_some_and(|[b, n]| b + opts.max_folds_worse + 1 >= n)
                 };
-                let form_fit =
-                    confounds(&current, last, opts.separable_precision, opts.max_delta_bic)
-                        .into_iter()
-                        .filter(|c| c.interval_95_with_form.is_some())
-                        .find_map(|c| {
-                            fits.iter()
-                                .find(|f| f.1.effect == c.form && admissible(&f.1))
-                        });
+                let found = confounds(&current, last, opts.separable_precision, opts.max_delta_bic);
+                let form_fit = found
+                    .iter()
+                    .filter(|c| c.interval_95_with_form.is_some())
+                    .find_map(|c| {
+                        fits.iter()
+                            .find(|f| f.1.effect == c.form && admissible(&f.1))
+                    });
                 match form_fit {
                     Some((fit, cand)) => {
                         current_heldout = heldout(fit, &data, &masks, opts);
@@ -925,19 +924,13 @@ fn diagnose_skipping(
                         current = fit.clone();
                     }
                     None => {
-                        last_round_final = true;
+                        final_confounds = found;
                         break;
                     }
                 }
             }
         }
     }
-    let confounds = match rounds.last() {
-        Some(last) if last_round_final => {
-            confounds(&current, last, opts.separable_precision, opts.max_delta_bic)
-        }
-        _ => Vec::new(),
-    };
 
     let final_model = current.model()?;
     let (r, preds) = residual(&all, &final_model);
@@ -980,7 +973,7 @@ fn diagnose_skipping(
         selected,
         selected_details,
         params: current.params.clone(),
-        confounds,
+        confounds: final_confounds,
         final_rmse_kpa: final_rmse,
         final_heldout_rmse_kpa: current_heldout.overall,
         noise_floor_kpa: noise,
