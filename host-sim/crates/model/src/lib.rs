@@ -243,11 +243,19 @@ impl RigModel {
         &self.effects
     }
 
-    fn context(&self, state: &RunState, t_s: f64, dt_s: f64, flow: f64) -> StepContext {
+    fn context(
+        &self,
+        state: &RunState,
+        t_s: f64,
+        dt_s: f64,
+        flow: f64,
+        step_flow: f64,
+    ) -> StepContext {
         StepContext {
             t_s,
             dt_s,
             pump_flow_ml_s: flow,
+            step_flow_ml_s: step_flow,
             depth_mm: state.depth_mm,
             absolute_rest_kpa: self.basis.absolute_rest_kpa(state.depth_mm),
             pressure_source: self.basis.rig.measurement.pressure_source,
@@ -273,7 +281,7 @@ impl RigModel {
             effects: Vec::new(),
             cycles: CycleDetector::new(0.0),
         };
-        let ctx = self.context(&state, 0.0, 0.0, 0.0);
+        let ctx = self.context(&state, 0.0, 0.0, 0.0, 0.0);
         state.effects = self.built.iter().map(|e| e.initial_state(&ctx)).collect();
         state
     }
@@ -321,19 +329,47 @@ impl RigModel {
     /// pump at net volume `pump_volume_ml`; returns what the rig shows.
     /// Times that do not increase count as a zero time step.
     pub fn step(&self, state: &mut RunState, t_s: f64, pump_volume_ml: f64) -> Prediction {
-        let (dt, flow) = if state.started && t_s > state.t_s {
+        self.advance(state, t_s, pump_volume_ml, None)
+    }
+
+    /// [`RigModel::step`] over a thinned copy of a recording: the pump's
+    /// flow at this sample, `flow_ml_s` (mL/s), is the recording's own
+    /// backward difference, not the difference to the previous step. The
+    /// terms that read the flow (a line's loss, a piston's friction, the
+    /// pump's phase) then see at every kept sample what they see when the
+    /// whole recording is stepped through; what integrates over the step
+    /// (a sensor's lag) still takes the step's mean flow.
+    pub fn step_at_flow(
+        &self,
+        state: &mut RunState,
+        t_s: f64,
+        pump_volume_ml: f64,
+        flow_ml_s: f64,
+    ) -> Prediction {
+        self.advance(state, t_s, pump_volume_ml, Some(flow_ml_s))
+    }
+
+    fn advance(
+        &self,
+        state: &mut RunState,
+        t_s: f64,
+        pump_volume_ml: f64,
+        sample_flow_ml_s: Option<f64>,
+    ) -> Prediction {
+        let (dt, step_flow) = if state.started && t_s > state.t_s {
             let dt = t_s - state.t_s;
             (dt, (pump_volume_ml - state.pump_ml) / dt)
         } else {
             (0.0, 0.0)
         };
+        let flow = sample_flow_ml_s.unwrap_or(step_flow);
         let phase = Phase::of_flow(flow, self.hold_flow_ml_s);
         if state.cycles.update(pump_volume_ml, phase) {
             if let Some(law) = &self.sand {
                 state.sand = Some(law.fresh_cycle());
             }
         }
-        let ctx = self.context(state, t_s, dt, flow);
+        let ctx = self.context(state, t_s, dt, flow, step_flow);
         let trial = if self.holds_volume {
             self.solve(state, &ctx, pump_volume_ml)
         } else {
@@ -425,20 +461,36 @@ impl RigModel {
 
     /// The reading at every sample of `run` (kPa).
     pub fn predict(&self, run: &Run) -> Vec<f64> {
-        let mut state = self.start_run(run.depth_mm);
-        run.samples
-            .iter()
-            .map(|s| self.step(&mut state, s.t_s, s.volume_ml).sensor_kpa)
-            .collect()
+        self.predict_at(run, None)
     }
 
     /// The full prediction at every sample of `run`.
     pub fn predict_full(&self, run: &Run) -> Vec<Prediction> {
+        self.predict_full_at(run, None)
+    }
+
+    /// [`RigModel::predict`] with each sample's flow given (mL/s, one per
+    /// sample; [`RigModel::step_at_flow`]) where `flows_ml_s` is `Some`.
+    pub fn predict_at(&self, run: &Run, flows_ml_s: Option<&[f64]>) -> Vec<f64> {
+        self.steps(run, flows_ml_s).map(|p| p.sensor_kpa).collect()
+    }
+
+    /// [`RigModel::predict_full`] with each sample's flow given, as in
+    /// [`RigModel::predict_at`].
+    pub fn predict_full_at(&self, run: &Run, flows_ml_s: Option<&[f64]>) -> Vec<Prediction> {
+        self.steps(run, flows_ml_s).collect()
+    }
+
+    fn steps<'a>(
+        &'a self,
+        run: &'a Run,
+        flows_ml_s: Option<&'a [f64]>,
+    ) -> impl Iterator<Item = Prediction> + 'a {
         let mut state = self.start_run(run.depth_mm);
-        run.samples
-            .iter()
-            .map(|s| self.step(&mut state, s.t_s, s.volume_ml))
-            .collect()
+        run.samples.iter().enumerate().map(move |(i, s)| {
+            let flow = flows_ml_s.and_then(|f| f.get(i).copied());
+            self.advance(&mut state, s.t_s, s.volume_ml, flow)
+        })
     }
 }
 

@@ -4,8 +4,8 @@
 
 use rayon::prelude::*;
 
-use model::RigModel;
-use rig::{Experiment, Run};
+use model::{Prediction, RigModel};
+use rig::{Experiment, Run, Sample};
 
 /// Largest number of samples calibration steps through; bigger folders
 /// are thinned (every k-th sample of each run) for fitting, and scored
@@ -31,6 +31,12 @@ pub struct Dataset {
     /// Samples left out of every fit and score (isolated spikes,
     /// [`crate::spikes`]); their readings stay in the runs.
     pub skip: Vec<bool>,
+    /// On a thinned copy, each sample's pump flow in the whole recording
+    /// (mL/s, the backward difference to its previous sample there), so
+    /// that the model reads at a kept sample the flow it reads when every
+    /// sample is stepped through ([`RigModel::step_at_flow`]). `None`:
+    /// every sample of the recording is here.
+    pub recorded_flow_ml_s: Option<Vec<f64>>,
 }
 
 impl Dataset {
@@ -57,6 +63,7 @@ impl Dataset {
             measured,
             run_of,
             skip,
+            recorded_flow_ml_s: None,
         }
     }
 
@@ -127,6 +134,16 @@ impl Dataset {
                 plan.iter().map(move |&i| self.skip[a + i])
             })
             .collect();
+        thin.recorded_flow_ml_s = Some(
+            chosen
+                .iter()
+                .zip(&plans)
+                .flat_map(|(&j, plan)| {
+                    let s = &self.runs[j].samples;
+                    plan.iter().map(move |&i| recorded_flow_ml_s(s, i))
+                })
+                .collect(),
+        );
         thin
     }
 
@@ -154,8 +171,8 @@ impl Dataset {
 
     /// Whole runs, thinned by `stride`, within `budget` samples: taken in
     /// turn from each depth (in the order depths first appear), each
-    /// depth's runs spread over its list; at least one per depth. Indices
-    /// in the folder's order.
+    /// depth's runs spread over its list; at least one per depth, and as
+    /// many from each depth as it has runs. Indices in the folder's order.
     fn spread_runs(&self, budget: usize, stride: usize) -> Vec<usize> {
         let mut groups: Vec<(u64, Vec<usize>)> = Vec::new();
         for (j, r) in self.runs.iter().enumerate() {
@@ -169,17 +186,19 @@ impl Dataset {
         let size = |j: usize| self.runs[j].samples.len().div_ceil(stride) + 1;
         let (mut chosen, mut total) = (Vec::new(), 0usize);
         let rounds = orders.iter().map(Vec::len).max().unwrap_or(0);
-        'rounds: for round in 0..rounds {
-            for order in &orders {
-                let Some(&j) = order.get(round) else {
-                    continue;
-                };
-                if round > 0 && total + size(j) > budget {
-                    break 'rounds;
-                }
-                total += size(j);
-                chosen.push(j);
+        for round in 0..rounds {
+            // Whole rounds only: a depth with a run more than another
+            // would weigh more in the fit than it does in the folder.
+            let next: Vec<usize> = orders
+                .iter()
+                .filter_map(|o| o.get(round).copied())
+                .collect();
+            let more: usize = next.iter().map(|&j| size(j)).sum();
+            if round > 0 && total + more > budget {
+                break;
             }
+            total += more;
+            chosen.extend(next);
         }
         chosen.sort_unstable();
         chosen
@@ -224,8 +243,37 @@ impl Dataset {
 
     /// The model's reading at every sample, runs in parallel.
     pub fn predict(&self, model: &RigModel) -> Vec<f64> {
-        let parts: Vec<Vec<f64>> = self.runs.par_iter().map(|r| model.predict(r)).collect();
+        let parts: Vec<Vec<f64>> = (0..self.runs.len())
+            .into_par_iter()
+            .map(|k| model.predict_at(&self.runs[k], self.run_flows(k)))
+            .collect();
         parts.concat()
+    }
+
+    /// The model's full prediction at every sample, runs in parallel.
+    pub fn predict_full(&self, model: &RigModel) -> Vec<Prediction> {
+        let parts: Vec<Vec<Prediction>> = (0..self.runs.len())
+            .into_par_iter()
+            .map(|k| model.predict_full_at(&self.runs[k], self.run_flows(k)))
+            .collect();
+        parts.concat()
+    }
+
+    /// Run `k`'s slice of [`Dataset::recorded_flow_ml_s`].
+    fn run_flows(&self, k: usize) -> Option<&[f64]> {
+        let flows = self.recorded_flow_ml_s.as_ref()?;
+        flows.get(self.offsets[k]..self.offsets[k + 1])
+    }
+}
+
+/// The pump flow at sample `i` of `samples` as [`RigModel::step`] sees it
+/// stepping through them all (mL/s): the backward difference; 0 at the
+/// first sample and where time does not advance, as there.
+fn recorded_flow_ml_s(samples: &[Sample], i: usize) -> f64 {
+    let prev = i.checked_sub(1).and_then(|p| samples.get(p));
+    match (prev, samples.get(i)) {
+        (Some(a), Some(b)) if b.t_s > a.t_s => (b.volume_ml - a.volume_ml) / (b.t_s - a.t_s),
+        _ => 0.0,
     }
 }
 
@@ -256,7 +304,6 @@ fn spread_order(items: &[usize]) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rig::Sample;
 
     fn run(id: &str, depth_mm: f64, n: usize, dt_s: f64) -> Run {
         Run {
@@ -272,6 +319,76 @@ mod tests {
                 })
                 .collect(),
         }
+    }
+
+    #[test]
+    fn a_thinned_copy_reads_the_flow_of_the_whole_recording() {
+        // A fill and a drain at 1 mL/s logged to 1 µL every 1.73 ms, in
+        // free water with a line loss: the reading at a kept sample is
+        // the skin at that volume plus R times the flow, so the thinned
+        // copy must give every kept sample's full-recording reading, bit
+        // for bit, although its own steps are ten samples long.
+        let dt = 0.00173;
+        let samples: Vec<Sample> = (0..2000)
+            .map(|i| {
+                let t = i as f64 * dt;
+                let v = if t < 1.7 { t } else { (3.4 - t).max(0.0) };
+                Sample {
+                    t_s: t,
+                    volume_ml: (v * 1e3).round() / 1e3,
+                    pressure_kpa: 0.0,
+                    diameter_mm: None,
+                    extra: Vec::new(),
+                }
+            })
+            .collect();
+        let data = Dataset::from_runs(vec![Run {
+            id: "a".into(),
+            depth_mm: 0.0,
+            samples,
+        }]);
+        let loss =
+            model::effects::EffectInstance::new("line_loss", &[("resistance_kpa_s_per_ml", 0.25)])
+                .unwrap();
+        let m = RigModel::new(
+            &rig::Rig::paper_default(),
+            &model::Params::default(),
+            &[loss],
+        )
+        .unwrap();
+        let full = data.predict(&m);
+        let mut thin = data.thinned(201);
+        assert_eq!(thin.runs[0].samples[1].t_s, 10.0 * dt);
+        let kept: Vec<f64> = (0..2000)
+            .filter(|i| i % 10 == 0 || *i == 1999)
+            .map(|i| full[i])
+            .collect();
+        assert_eq!(thin.predict(&m), kept);
+        // Stepping the thinned copy on its own differences smooths the
+        // log's 1 µL steps: the readings move by up to R·0.58 mL/s/2.
+        thin.recorded_flow_ml_s = None;
+        let off = thin
+            .predict(&m)
+            .iter()
+            .zip(&kept)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(off > 0.05, "{off}");
+    }
+
+    #[test]
+    fn whole_runs_are_kept_as_many_from_every_depth() {
+        // Three runs at the first depth and two at each other, 901 samples
+        // each at 20 ms (no thinning): a fourth run, from the first depth
+        // only, would fit the budget but weigh that depth twice.
+        let runs = [0.0, 0.0, 0.0, 50.0, 50.0, 120.0, 120.0]
+            .iter()
+            .enumerate()
+            .map(|(k, &h)| run(&format!("r{k}"), h, 900, 0.02))
+            .collect();
+        let thin = Dataset::from_runs(runs).thinned(MAX_FIT_SAMPLES);
+        let depths: Vec<f64> = thin.runs.iter().map(|r| r.depth_mm).collect();
+        assert_eq!(depths, [0.0, 50.0, 120.0]);
     }
 
     #[test]

@@ -65,13 +65,7 @@ pub struct ResidualReport {
 
 /// Residual (measured − model) and the model's predictions at every sample.
 pub fn residual(data: &Dataset, model: &RigModel) -> (Vec<f64>, Vec<Prediction>) {
-    use rayon::prelude::*;
-    let preds: Vec<Prediction> = data
-        .runs
-        .par_iter()
-        .map(|r| model.predict_full(r))
-        .collect::<Vec<_>>()
-        .concat();
+    let preds = data.predict_full(model);
     let r = data
         .measured
         .iter()

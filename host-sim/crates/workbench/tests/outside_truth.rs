@@ -230,6 +230,91 @@ fn wall_arching_on_three_sand_depths_is_told_apart_from_the_depth_law() {
     assert!(d.confounds.is_empty(), "{:?}", d.confounds);
 }
 
+/// `exp` with its runs written `times` times over as separate runs.
+fn repeated(exp: &Experiment, times: usize) -> Experiment {
+    let mut many = exp.clone();
+    many.runs = (1..=times)
+        .flat_map(|k| {
+            exp.runs.iter().map(move |r| rig::Run {
+                id: format!("{}_r{k}", r.id),
+                ..r.clone()
+            })
+        })
+        .collect();
+    many
+}
+
+/// Asserts that `many` got `one`'s diagnosis: the same selection, every
+/// parameter of a selected effect within 5 % of `one`'s (or, near zero,
+/// within its interval), and a final RMSE within 10 %.
+fn same_diagnosis(label: &str, one: &Diagnosis, many: &Diagnosis) {
+    assert_eq!(many.selected, one.selected, "{label}");
+    for p in one.params.iter().filter(|p| p.name.contains('.')) {
+        let q = many.params.iter().find(|q| q.name == p.name).unwrap();
+        let within = p
+            .interval_95
+            .is_some_and(|[a, b]| (a..=b).contains(&q.value));
+        assert!(
+            (q.value - p.value).abs() <= 0.05 * p.value.abs() || within,
+            "{label}: {} {} against {}",
+            p.name,
+            q.value,
+            p.value
+        );
+    }
+    assert!(
+        many.final_rmse_kpa <= 1.1 * one.final_rmse_kpa,
+        "{label}: {} against {}",
+        many.final_rmse_kpa,
+        one.final_rmse_kpa
+    );
+}
+
+#[test]
+fn outside_runs_repeated_many_times_get_the_diagnosis_of_one() {
+    // A line loss and a leak from the outside truth, its three runs
+    // written 40 times as 120 runs (90,000 samples): the fit runs on a
+    // few whole runs, the score on all of them, and the answer is the
+    // original's.
+    let truth = Truth::new(vec![Hidden::Leak(0.004), Hidden::LineLoss(0.3)], 1);
+    let (one, want) = diagnosed(&truth);
+    let many = repeated(&one, 40);
+    let got = diagnose(&many, &DiagnoseOptions::default()).unwrap();
+    assert_eq!(got.samples[0], 40 * want.samples[0]);
+    assert!(got.samples[1] <= MAX_FIT_SAMPLES + 400, "{:?}", got.samples);
+    same_diagnosis("leak + line_loss", &want, &got);
+}
+
+#[test]
+#[ignore = "a million samples a case: [OUTSIDE_REPEAT=450] [OUTSIDE_KEEP=DIR] cargo test --profile sim -p workbench --test outside_truth outside_folders_of_a_million_samples -- --ignored --nocapture"]
+fn outside_folders_of_a_million_samples_get_the_diagnosis_of_one() {
+    let times: usize = std::env::var("OUTSIDE_REPEAT").map_or(450, |s| s.parse().unwrap());
+    for (label, hidden) in cases()
+        .into_iter()
+        .filter(|(l, _)| ["none", "leak + line_loss", "leak + skin_viscoelasticity"].contains(l))
+    {
+        let truth = Truth::new(hidden, 1);
+        let (one, want) = diagnosed(&truth);
+        let many = repeated(&one, times);
+        if let Ok(dir) = std::env::var("OUTSIDE_KEEP") {
+            let name: String = label.chars().filter(char::is_ascii_alphanumeric).collect();
+            many.write(&std::path::Path::new(&dir).join(name)).unwrap();
+        }
+        let clock = std::time::Instant::now();
+        let got = diagnose(&many, &DiagnoseOptions::default()).unwrap();
+        println!(
+            "{label}: {} samples, {:.2} s; {:?} RMSE {:.4} against {:?} {:.4}",
+            got.samples[0],
+            clock.elapsed().as_secs_f64(),
+            got.selected,
+            got.final_rmse_kpa,
+            want.selected,
+            want.final_rmse_kpa
+        );
+        same_diagnosis(label, &want, &got);
+    }
+}
+
 #[test]
 fn outside_mullins_softening_is_named_at_its_ogden_roxburgh_rate() {
     // First rig, seed 1, no [skin]: the 5 mL fill reaches W_max/m ≈ 0.8,

@@ -84,8 +84,14 @@ pub struct StepContext {
     pub t_s: f64,
     /// Time since the previous step (s); 0 on the first.
     pub dt_s: f64,
-    /// Pump flow into the line (mL/s), backward difference; > 0 pushing.
+    /// Pump flow into the line at this sample (mL/s), > 0 pushing: the
+    /// backward difference to the recording's previous sample, which is
+    /// the previous step unless the model steps over a thinned copy.
     pub pump_flow_ml_s: f64,
+    /// Mean pump flow over this step (mL/s): the volume pumped since the
+    /// previous step over `dt_s`. What an integrator over the step needs;
+    /// equal to `pump_flow_ml_s` when every sample is stepped through.
+    pub step_flow_ml_s: f64,
     /// Sand cover of the run (mm).
     pub depth_mm: f64,
     /// Absolute pressure at the actuator at gauge zero: atmosphere plus the
@@ -116,6 +122,7 @@ pub(crate) fn free_water_context() -> StepContext {
         t_s: 0.0,
         dt_s: 0.0,
         pump_flow_ml_s: 0.0,
+        step_flow_ml_s: 0.0,
         depth_mm: 0.0,
         absolute_rest_kpa: crate::ATMOSPHERE_KPA,
         pressure_source: PressureSource::LineSensor,
@@ -372,6 +379,7 @@ mod tests {
             t_s: 1.0,
             dt_s: 0.02,
             pump_flow_ml_s: 1.0,
+            step_flow_ml_s: 1.0,
             depth_mm: 40.0,
             absolute_rest_kpa: 103.5,
             pressure_source: PressureSource::PistonForce,

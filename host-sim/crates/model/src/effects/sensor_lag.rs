@@ -74,9 +74,9 @@ impl Effect for SensorLag {
         // `state` is a trial copy of the committed value (negative while
         // shrinking).
         state[0] = if ctx.dt_s >= self.lag_s {
-            ctx.pump_flow_ml_s * self.lag_s
+            ctx.step_flow_ml_s * self.lag_s
         } else {
-            state[0] * (1.0 - ctx.dt_s / self.lag_s) + ctx.pump_flow_ml_s * ctx.dt_s
+            state[0] * (1.0 - ctx.dt_s / self.lag_s) + ctx.step_flow_ml_s * ctx.dt_s
         };
         state[0]
     }
@@ -139,6 +139,7 @@ mod tests {
             t_s: 1.0,
             dt_s,
             pump_flow_ml_s: flow_ml_s,
+            step_flow_ml_s: flow_ml_s,
             ..free_water_context()
         }
     }
