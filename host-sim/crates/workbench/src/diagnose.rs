@@ -661,6 +661,11 @@ fn diagnose_skipping(
     let mut physical = 0;
     // Found in the round that adds nothing: scored against the final model.
     let mut final_confounds = Vec::new();
+    // Each candidate's own values where its last round's fit left them:
+    // a round later it also starts there, since the fit from the effect's
+    // defaults beside the round's new member can stall where that member
+    // took the effect's part (a stated skin's scale taking a bubble's).
+    let mut last_values: Vec<(&'static str, Vec<f64>)> = Vec::new();
     loop {
         let on: Vec<&str> = current.space.effects.iter().map(|e| e.spec.name).collect();
         let tries: Vec<&'static EffectSpec> = applicable
@@ -678,7 +683,13 @@ fn diagnose_skipping(
         let mut fits: Vec<(Fit, Candidate)> = tries
             .par_iter()
             .filter_map(|spec| {
-                let fit = starts(spec)
+                let mut from = starts(spec);
+                if let Some((_, v)) = last_values.iter().find(|(n, _)| *n == spec.name) {
+                    if !from.contains(v) {
+                        from.push(v.clone());
+                    }
+                }
+                let fit = from
                     .into_iter()
                     .filter_map(|values| {
                         let mut effects = current.space.effects.clone();
@@ -730,6 +741,11 @@ fn diagnose_skipping(
             })
             .collect();
         fits.sort_by(|a, b| a.1.score.total_cmp(&b.1.score));
+        last_values = fits
+            .iter()
+            .filter_map(|(f, _)| f.space.effects.last())
+            .map(|e| (e.spec.name, e.values.clone()))
+            .collect();
         // The best few of each kind (forms of the baseline, physical
         // effects) are cross-validated; the best admissible one by ΔBIC is
         // taken.

@@ -128,6 +128,21 @@ fn a_bubble_the_forms_partly_mimic_is_still_named() {
 }
 
 #[test]
+fn a_bubble_beside_a_stated_skins_scale_is_still_named() {
+    // Seed 1 with [skin]: the stated coupon law's scale (≈ 0.965 in the
+    // tube) goes in a round before the 5 mL bubble. Fitted from its own
+    // defaults beside that scale, the air stalled at 1.2 mL and changed
+    // the reading too little to name; started also where the round before
+    // left it (5.9 mL), it comes back to its volume.
+    let mut truth = Truth::new(vec![Hidden::TrappedAir(5.0)], 1);
+    truth.skin_known = true;
+    let (_, d) = diagnosed(&truth);
+    assert_eq!(effects(&d), ["trapped_air"], "{:?}", d.selected);
+    let v = primary(&d, "trapped_air", "gas_volume_ml").unwrap();
+    assert!((v - 5.0).abs() <= 0.15 * 5.0, "{v}");
+}
+
+#[test]
 fn an_outside_line_loss_is_named_within_15_percent() {
     for skin_known in [false, true] {
         let mut truth = Truth::new(vec![Hidden::LineLoss(0.3)], 1);
