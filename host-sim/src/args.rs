@@ -429,12 +429,21 @@ pub struct CalibrationArgs {
     /// Sand ahead of the zone's head (mm).
     #[arg(long = "ahead-mm")]
     ahead_mm: Option<f64>,
+    /// The box the sand settles in.
+    #[command(flatten)]
+    sand_box: BoxArgs,
+}
+
+/// The box the sand settles in, where a run departs from its case's
+/// (`simulate` and `balloon`).
+#[derive(Args, Clone, Copy, Debug, Default)]
+pub struct BoxArgs {
     /// The box's floor below the axis (mm); the settling time follows.
     #[arg(long = "below-mm")]
-    below_mm: Option<f64>,
+    pub below_mm: Option<f64>,
     /// The box's width (mm).
     #[arg(long = "box-width-mm")]
-    box_width_mm: Option<f64>,
+    pub box_width_mm: Option<f64>,
 }
 
 /// `AROUNDxALONG` → (around, along).
@@ -490,8 +499,8 @@ impl SimulateArgs {
             wall_friction: k.wall_friction,
             surcharge_above_mm: self.surcharge_above_mm,
             ahead_mm: k.ahead_mm,
-            below_mm: k.below_mm,
-            box_width_mm: k.box_width_mm,
+            below_mm: k.sand_box.below_mm,
+            box_width_mm: k.sand_box.box_width_mm,
             seed: self.seed,
             seeds: self.seeds,
             quick: self.quick,
@@ -535,12 +544,9 @@ pub struct BalloonArgs {
     /// rig's [skin] (the balloon's free pressure then scales it).
     #[command(flatten)]
     pub skin: SkinFitArgs,
-    /// The box's floor below the axis (mm); the settling time follows.
-    #[arg(long = "below-mm")]
-    pub below_mm: Option<f64>,
-    /// The box's width (mm).
-    #[arg(long = "box-width-mm")]
-    pub box_width_mm: Option<f64>,
+    /// The box the sand settles in.
+    #[command(flatten)]
+    pub sand_box: BoxArgs,
     /// Nominal duration of the expansion (s): twice the default halves
     /// the injection rate.
     #[arg(long = "expansion-s")]

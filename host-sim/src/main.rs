@@ -289,8 +289,8 @@ fn balloon(a: args::BalloonArgs, part: Part, argv: Vec<String>) -> Result<()> {
         rig,
         out: Some(a.out.clone()),
         progress: true,
-        below_m: a.below_mm.map(|v| v * 1e-3),
-        box_width_m: a.box_width_mm.map(|v| v * 1e-3),
+        below_m: a.sand_box.below_mm.map(|v| v * 1e-3),
+        box_width_m: a.sand_box.box_width_mm.map(|v| v * 1e-3),
         expansion_s: a.expansion_s,
         ..BalloonOptions::paper(a.seeds)
     };
