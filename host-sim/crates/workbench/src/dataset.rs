@@ -243,20 +243,22 @@ impl Dataset {
 
     /// The model's reading at every sample, runs in parallel.
     pub fn predict(&self, model: &RigModel) -> Vec<f64> {
-        let parts: Vec<Vec<f64>> = (0..self.runs.len())
-            .into_par_iter()
-            .map(|k| model.predict_at(&self.runs[k], self.run_flows(k)))
-            .collect();
-        parts.concat()
+        self.per_run(|run, flows| model.predict_at(run, flows))
     }
 
     /// The model's full prediction at every sample, runs in parallel.
     pub fn predict_full(&self, model: &RigModel) -> Vec<Prediction> {
-        let parts: Vec<Vec<Prediction>> = (0..self.runs.len())
+        self.per_run(|run, flows| model.predict_full_at(run, flows))
+    }
+
+    /// `predict` over every run with its recorded flows, runs in
+    /// parallel, concatenated in the flat order.
+    fn per_run<T: Send>(&self, predict: impl Fn(&Run, Option<&[f64]>) -> Vec<T> + Sync) -> Vec<T> {
+        let parts: Vec<Vec<T>> = (0..self.runs.len())
             .into_par_iter()
-            .map(|k| model.predict_full_at(&self.runs[k], self.run_flows(k)))
+            .map(|k| predict(&self.runs[k], self.run_flows(k)))
             .collect();
-        parts.concat()
+        parts.into_iter().flatten().collect()
     }
 
     /// Run `k`'s slice of [`Dataset::recorded_flow_ml_s`].
