@@ -143,6 +143,17 @@ impl RunState {
     }
 }
 
+/// The time (s) from pump volume `from_ml` at `from_s` to `to_ml` at
+/// `to_s` and the pump's mean flow over it (mL/s), the backward difference
+/// [`RigModel::step`] takes; `None` where time does not advance (a zero
+/// step at no flow).
+pub fn pump_flow(from_s: f64, from_ml: f64, to_s: f64, to_ml: f64) -> Option<(f64, f64)> {
+    (to_s > from_s).then(|| {
+        let dt = to_s - from_s;
+        (dt, (to_ml - from_ml) / dt)
+    })
+}
+
 /// The model's output at one step.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Prediction {
@@ -356,12 +367,11 @@ impl RigModel {
         pump_volume_ml: f64,
         sample_flow_ml_s: Option<f64>,
     ) -> Prediction {
-        let (dt, step_flow) = if state.started && t_s > state.t_s {
-            let dt = t_s - state.t_s;
-            (dt, (pump_volume_ml - state.pump_ml) / dt)
-        } else {
-            (0.0, 0.0)
-        };
+        let (dt, step_flow) = state
+            .started
+            .then(|| pump_flow(state.t_s, state.pump_ml, t_s, pump_volume_ml))
+            .flatten()
+            .unwrap_or((0.0, 0.0));
         let flow = sample_flow_ml_s.unwrap_or(step_flow);
         let phase = Phase::of_flow(flow, self.hold_flow_ml_s);
         if state.cycles.update(pump_volume_ml, phase) {

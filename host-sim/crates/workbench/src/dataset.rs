@@ -269,12 +269,14 @@ impl Dataset {
 }
 
 /// The pump flow at sample `i` of `samples` as [`RigModel::step`] sees it
-/// stepping through them all (mL/s): the backward difference; 0 at the
-/// first sample and where time does not advance, as there.
+/// stepping through them all (mL/s, [`model::pump_flow`]); 0 at the first
+/// sample, as there.
 fn recorded_flow_ml_s(samples: &[Sample], i: usize) -> f64 {
     let prev = i.checked_sub(1).and_then(|p| samples.get(p));
     match (prev, samples.get(i)) {
-        (Some(a), Some(b)) if b.t_s > a.t_s => (b.volume_ml - a.volume_ml) / (b.t_s - a.t_s),
+        (Some(a), Some(b)) => {
+            model::pump_flow(a.t_s, a.volume_ml, b.t_s, b.volume_ml).map_or(0.0, |(_, flow)| flow)
+        }
         _ => 0.0,
     }
 }
