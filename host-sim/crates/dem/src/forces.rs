@@ -158,6 +158,10 @@ impl<'a> PairRun<'a> {
     ) {
         let zero = Lanes::splat(0.0);
         let last = which.len().saturating_sub(1);
+        #[cfg(feature = "pass-parts")]
+        if pass_parts::left_out().evaluation {
+            return;
+        }
         for first in (0..which.len()).step_by(LANE_COUNT) {
             let batch: [usize; LANE_COUNT] =
                 std::array::from_fn(|l| slots[which[(first + l).min(last)] as usize] as usize);
@@ -173,12 +177,76 @@ impl<'a> PairRun<'a> {
                     h.0[l] = if open { v } else { 0.0 };
                 }
             }
+            #[cfg(feature = "pass-parts")]
+            let parts = pass_parts::left_out();
+            #[cfg(feature = "pass-parts")]
+            let f = if parts.law {
+                pass_parts::no_law(&g)
+            } else {
+                model.evaluate(&g, dt_s, &mut h)
+            };
+            #[cfg(not(feature = "pass-parts"))]
             let f = model.evaluate(&g, dt_s, &mut h);
             for (l, &s) in batch.iter().enumerate().take(which.len() - first) {
                 self.history[s] = h.map(|c| c.0[l]);
                 self.open[s] = 1;
+                #[cfg(feature = "pass-parts")]
+                if parts.sums {
+                    std::hint::black_box(f.lane(l));
+                    continue;
+                }
                 put(i[l], j[l], f.lane(l));
             }
+        }
+    }
+}
+
+/// Parts of the pair pass that a measurement can leave out (feature
+/// `pass-parts`, for `pass_parts_alone` only: the forces are then wrong),
+/// to see what each costs on a frozen bed.
+#[cfg(feature = "pass-parts")]
+pub(crate) mod pass_parts {
+    use super::{ContactForce, ContactGeometry, Lanes};
+    use std::sync::atomic::{AtomicU8, Ordering::Relaxed};
+
+    /// Bit 1: the contact law; bit 2: the sums into the particles; bit 4:
+    /// the whole evaluation of touching pairs (overlap test only).
+    static LEFT_OUT: AtomicU8 = AtomicU8::new(0);
+
+    /// What is left out now.
+    pub(crate) struct Parts {
+        /// The contact law ([`no_law`] stands in).
+        pub law: bool,
+        /// The sums into the particles.
+        pub sums: bool,
+        /// Every touching pair's evaluation.
+        pub evaluation: bool,
+    }
+
+    /// Leaves out the parts in `bits` (see [`LEFT_OUT`]) from now on.
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(crate) fn leave_out(bits: u8) {
+        LEFT_OUT.store(bits, Relaxed);
+    }
+
+    /// What is left out now.
+    #[inline(always)]
+    pub(crate) fn left_out() -> Parts {
+        let b = LEFT_OUT.load(Relaxed);
+        Parts {
+            law: b & 1 != 0,
+            sums: b & 2 != 0,
+            evaluation: b & 4 != 0,
+        }
+    }
+
+    /// A stand-in for the law that reads the geometry and costs little.
+    #[inline(always)]
+    pub(crate) fn no_law(g: &ContactGeometry<Lanes>) -> ContactForce<Lanes> {
+        ContactForce {
+            force_n: g.normal * g.overlap_m,
+            torque_per_radius_n: g.tangential_velocity_m_s,
+            rolling_torque_n_m: g.relative_spin_rad_s,
         }
     }
 }
@@ -1079,5 +1147,67 @@ mod tests {
         list.builds += 1;
         blocks.split(&list, 2);
         assert!(blocks.first[1] < 100);
+    }
+}
+
+/// What each part of the pair pass costs: the benchmark's bed settled
+/// (all 31,000 steps of its three phases, scaled by `PASS_PARTS_SCALE`,
+/// default 0.3),
+/// then the pass alone, positions frozen, with the parts of
+/// [`pass_parts`] left out in turn (best of five rounds of 300 passes,
+/// each from the same histories). Prints ns per particle.
+#[cfg(all(test, feature = "pass-parts"))]
+mod pass_parts_alone {
+    use super::*;
+    use crate::{advance, benchmark};
+
+    #[test]
+    #[ignore = "cargo test --profile sim --target host-tuple -p dem --features pass-parts --lib pass_parts_alone -- --ignored --nocapture"]
+    fn pass_parts_alone() {
+        let scale: f64 = std::env::var("PASS_PARTS_SCALE")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0.3);
+        let (params, mut state) = benchmark::problem().unwrap();
+        advance(&params, &mut state, &mut (), (31_000.0 * scale) as u64).unwrap();
+        state.particles.pack_into(&mut state.packed);
+        let (history, open) = (
+            state.neighbours.history.clone(),
+            state.neighbours.open.clone(),
+        );
+        let n = state.particles.len() as f64;
+        println!(
+            "{} particles, mean contacts {:.4}; ns per particle for the pass:",
+            n,
+            state.mean_contacts()
+        );
+        for (label, bits) in [
+            ("whole pass", 0),
+            ("without the law", 1),
+            ("without the sums", 2),
+            ("without law and sums", 3),
+            ("overlap test only", 4),
+        ] {
+            pass_parts::leave_out(bits);
+            let mut best = f64::MAX;
+            for _ in 0..5 {
+                state.neighbours.history.copy_from_slice(&history);
+                state.neighbours.open.copy_from_slice(&open);
+                let started = std::time::Instant::now();
+                for _ in 0..300 {
+                    pair_forces(
+                        &params,
+                        &mut state.particles,
+                        &mut state.neighbours,
+                        &mut state.blocks,
+                        &state.packed,
+                        &state.images,
+                    );
+                }
+                best = best.min(started.elapsed().as_secs_f64() / 300.0);
+            }
+            println!("  {label:<22} {:6.2}", best * 1e9 / n);
+        }
+        pass_parts::leave_out(0);
     }
 }
