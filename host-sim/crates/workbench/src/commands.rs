@@ -541,8 +541,10 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
             if t.accepted { "kept" } else { "not kept" }
         );
     }
-    if d.selected.is_empty() {
+    if d.selected.is_empty() && d.withdrawn.is_empty() {
         s += "selected: none (no effect pays off)\n";
+    } else if d.selected.is_empty() {
+        s += "selected: none\n";
     } else {
         s += &format!("selected: {}\n", d.selected.join(", "));
         for e in &d.selected_details {
@@ -551,6 +553,13 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
                 None => s += &format!("  {}: {}\n", e.effect, e.signature),
             }
         }
+    }
+    for w in &d.withdrawn {
+        s += &format!(
+            "withdrawn: {} paid in its round but removed only {:.0} % of the misfit left there, and the residual stays unexplained: it may be following what is missing rather than causing it, so it is not named\n",
+            w.effect,
+            100.0 * w.excess_explained
+        );
     }
     s += &format!("final model parameters:\n{}", params_text(&d.params));
     for c in &d.confounds {

@@ -5,7 +5,7 @@ mod outside;
 
 use model::effects::{EffectInstance, EffectSpec};
 use model::{Params, RigBasis};
-use outside::{Hidden, Truth};
+use outside::{Hidden, Truth, TWO_SAND_DEPTHS};
 use rig::Experiment;
 use workbench::calibrate::{calibrate, FitOptions, FitSpace, Slot};
 use workbench::dataset::{Dataset, MAX_FIT_SAMPLES};
@@ -88,12 +88,13 @@ fn the_outside_control_gets_no_physical_effect() {
 
 #[test]
 fn two_forms_that_share_the_misfit_are_added_together() {
-    // Seed 1 without [skin], a drift outside the library: in the first
-    // round no candidate takes a third of the misfit alone, while the
+    // Seed 1 without [skin], a drift outside the library, sand at two
+    // depths only: in the first round no candidate takes a third of the misfit alone, while the
     // unloading and skin-shape forms pay on every other count; judged
     // together they do, and go in in one round. No physical effect
     // follows, and the drift is reported.
-    let truth = Truth::new(vec![Hidden::Drift(0.2, 9.0)], 1);
+    let mut truth = Truth::new(vec![Hidden::Drift(0.2, 9.0)], 1);
+    truth.runs = TWO_SAND_DEPTHS.to_vec();
     let (_, d) = diagnosed(&truth);
     assert_eq!(
         d.selected,
@@ -105,6 +106,27 @@ fn two_forms_that_share_the_misfit_are_added_together() {
     // nothing more to add.
     assert_eq!(d.later_rounds.len(), 1, "{:?}", d.selected);
     assert!(d.unexplained.is_some());
+}
+
+#[test]
+fn an_effect_that_follows_a_drift_outside_the_library_is_withdrawn() {
+    // Seed 1 with [skin]: the zero swings 0.2 kPa every 9 s. A skin
+    // viscoelasticity pays in its round (ΔBIC, every fold) by following
+    // part of the swing, but takes under half of the misfit there, and
+    // the residual stays unexplained: it is withdrawn, not named.
+    let mut truth = Truth::new(vec![Hidden::Drift(0.2, 9.0)], 1);
+    truth.skin_known = true;
+    let (_, d) = diagnosed(&truth);
+    assert!(effects(&d).is_empty(), "{:?}", d.selected);
+    assert!(d.unexplained.is_some());
+    let w: Vec<&str> = d.withdrawn.iter().map(|w| w.effect.as_str()).collect();
+    assert_eq!(w, ["skin_viscoelasticity"]);
+    let share = d.withdrawn[0].excess_explained;
+    let opts = DiagnoseOptions::default();
+    assert!(
+        share >= opts.min_excess_explained && share < opts.min_excess_explained_unexplained,
+        "{share}"
+    );
 }
 
 #[test]
@@ -156,13 +178,15 @@ fn an_outside_line_loss_is_named_within_15_percent() {
 
 #[test]
 fn an_effect_that_outranks_a_form_must_keep_its_gain_beside_it() {
-    // Second rig, seed 3, [skin], wall friction in the box: in the first
+    // Second rig, seed 3, [skin], wall friction in the box, sand at two
+    // depths: in the first
     // round the arching outranks the depth form and keeps its gain beside
     // it (every fold better), so it goes in; later a Mullins softening
     // outranks skin_shape but beside it helps in 3 folds of 4 only, so
     // the form goes in instead and the softening stays out.
     let mut truth = Truth::second_rig(vec![Hidden::WallFriction(0.18)], 3);
     truth.skin_known = true;
+    truth.runs = TWO_SAND_DEPTHS.to_vec();
     let (_, d) = diagnosed(&truth);
     let contests: Vec<_> = d
         .every_candidate()
@@ -197,7 +221,8 @@ fn wall_arching_on_two_sand_depths_is_not_separated_from_the_depth_law() {
     // only. Arching alone takes up both with a
     // narrow interval that misses the truth; with the depth law also free
     // the data leave μk free, and the diagnosis says so.
-    let truth = Truth::new(vec![Hidden::WallFriction(0.18)], 1);
+    let mut truth = Truth::new(vec![Hidden::WallFriction(0.18)], 1);
+    truth.runs = TWO_SAND_DEPTHS.to_vec();
     let (_, d) = diagnosed(&truth);
     assert_eq!(effects(&d), ["wall_arching"], "{:?}", d.selected);
     let c = d
@@ -221,18 +246,13 @@ fn wall_arching_on_two_sand_depths_is_not_separated_from_the_depth_law() {
 
 #[test]
 fn wall_arching_on_three_sand_depths_is_told_apart_from_the_depth_law() {
-    // The same folder with a run at 85 mm as well: now the depth law and
+    // The same folder on the generator's schedule, with a run at 85 mm as
+    // well: now the depth law and
     // the arching can be told apart. At the noise floor the depth form's
     // held-out gain is under 2 % (ΔBIC ≈ −100, every fold better), but
     // with it arching's μk leaves its own interval, from ≈ 0.24 to the
     // truth: the form goes in for that, and no confound is left.
-    let mut truth = Truth::new(vec![Hidden::WallFriction(0.18)], 1);
-    truth.runs = vec![
-        (0.0, [1.5, 3.0]),
-        (50.0, [3.0, 1.5]),
-        (85.0, [1.5, 3.0]),
-        (120.0, [3.0, 1.5]),
-    ];
+    let truth = Truth::new(vec![Hidden::WallFriction(0.18)], 1);
     let (_, d) = diagnosed(&truth);
     assert_eq!(effects(&d), ["wall_arching"], "{:?}", d.selected);
     assert!(
@@ -287,23 +307,23 @@ fn same_diagnosis(label: &str, one: &Diagnosis, many: &Diagnosis) {
 
 #[test]
 fn outside_runs_repeated_many_times_get_the_diagnosis_of_one() {
-    // A line loss and a leak from the outside truth, its three runs
-    // written 40 times as 120 runs (90,000 samples): the fit runs on a
+    // A line loss and a leak from the outside truth, its four runs
+    // written 30 times as 120 runs (90,000 samples): the fit runs on a
     // few whole runs, the score on all of them, and the answer is the
     // original's.
     let truth = Truth::new(vec![Hidden::Leak(0.004), Hidden::LineLoss(0.3)], 1);
     let (one, want) = diagnosed(&truth);
-    let many = repeated(&one, 40);
+    let many = repeated(&one, 30);
     let got = diagnose(&many, &DiagnoseOptions::default()).unwrap();
-    assert_eq!(got.samples[0], 40 * want.samples[0]);
+    assert_eq!(got.samples[0], 30 * want.samples[0]);
     assert!(got.samples[1] <= MAX_FIT_SAMPLES + 400, "{:?}", got.samples);
     same_diagnosis("leak + line_loss", &want, &got);
 }
 
 #[test]
-#[ignore = "a million samples a case: [OUTSIDE_REPEAT=450] [OUTSIDE_KEEP=DIR] cargo test --profile sim -p workbench --test outside_truth outside_folders_of_a_million_samples -- --ignored --nocapture"]
+#[ignore = "a million samples a case: [OUTSIDE_REPEAT=340] [OUTSIDE_KEEP=DIR] cargo test --profile sim -p workbench --test outside_truth outside_folders_of_a_million_samples -- --ignored --nocapture"]
 fn outside_folders_of_a_million_samples_get_the_diagnosis_of_one() {
-    let times: usize = std::env::var("OUTSIDE_REPEAT").map_or(450, |s| s.parse().unwrap());
+    let times: usize = std::env::var("OUTSIDE_REPEAT").map_or(340, |s| s.parse().unwrap());
     for (label, hidden) in cases()
         .into_iter()
         .filter(|(l, _)| ["none", "leak + line_loss", "leak + skin_viscoelasticity"].contains(l))
@@ -365,8 +385,8 @@ fn chosen_cases() -> Vec<(&'static str, Vec<Hidden>)> {
         .collect()
 }
 
-/// The runs of the ignored matrix, when `OUTSIDE_DEPTHS=0,50,85,120`
-/// asks for others than the generator's three: one run at each sand
+/// The runs of the ignored matrix, when `OUTSIDE_DEPTHS=0,50,120` asks
+/// for others than the generator's [`outside::SCHEDULE`]: one run at each sand
 /// cover (mm), the flow rates 1.5 and 3 mL/s taking turns first.
 fn chosen_runs() -> Option<Vec<(f64, [f64; 2])>> {
     let depths = std::env::var("OUTSIDE_DEPTHS").ok()?;
@@ -414,7 +434,7 @@ fn expected(truth: &Truth) -> Vec<&'static str> {
 }
 
 #[test]
-#[ignore = "the full matrix: [OUTSIDE_RIG=second] [OUTSIDE_CASES=none,leak] [OUTSIDE_SEEDS=1,2] [OUTSIDE_DEPTHS=0,50,85,120] [OUTSIDE_KEEP=DIR] cargo test -p workbench --test outside_truth -- --ignored --nocapture"]
+#[ignore = "the full matrix: [OUTSIDE_RIG=second] [OUTSIDE_CASES=none,leak] [OUTSIDE_SEEDS=1,2] [OUTSIDE_DEPTHS=0,50,120] [OUTSIDE_KEEP=DIR] cargo test -p workbench --test outside_truth -- --ignored --nocapture"]
 fn outside_confusion_matrix() {
     println!("case | seed | skin | baseline forms selected | effects selected | primary true→fit | final/noise | unexplained | right");
     let (mut right, mut total, mut primaries_ok, mut primaries) = (0, 0, 0, 0);
