@@ -132,6 +132,9 @@ pub struct Sensor {
     health: SensorHealth,
     skip_reads: u8,
     recoveries: u32,
+    /// A real driver (the virtual board's firmware) reads the part: the
+    /// modelled read task stands down.
+    driven: bool,
 }
 
 impl Sensor {
@@ -162,6 +165,7 @@ impl Sensor {
             health: SensorHealth::new(),
             skip_reads: 0,
             recoveries: 0,
+            driven: false,
         })
     }
 
@@ -202,6 +206,16 @@ impl Sensor {
         }
     }
 
+    /// A real driver reads the part from now on (the virtual board's
+    /// firmware, through [`Sensor::injected_attempt_fails`] and
+    /// [`Sensor::bus_cleared`]): [`Sensor::tick`] no longer runs the
+    /// modelled read task, whose own retries and bus clear would race the
+    /// driver's, using up a glitch's failed attempts or freeing a held SDA
+    /// before the firmware's bus clear does.
+    pub fn attach_driver(&mut self) {
+        self.driven = true;
+    }
+
     /// A bus clear freed the bus: a held SDA is released.
     pub fn bus_cleared(&mut self) {
         if self.fault == Some(SensorFault::StuckSda) {
@@ -239,7 +253,7 @@ impl Sensor {
             self.history.pop_front();
         }
         let period = self.config.period_ms.max(1);
-        if t_ms % period != self.config.read_phase_ms % period {
+        if self.driven || t_ms % period != self.config.read_phase_ms % period {
             return;
         }
         // The oldest kept value is `conversion_lag_ms` old (or the oldest

@@ -133,7 +133,10 @@ impl VirtualBoard {
             Some(s) => (s.plant.clone(), s.depth_mm, s.injections.clone()),
             None => (PlantConfig::paper(), options.depth_mm, Vec::new()),
         };
-        let plant = Plant::new(&config, depth_mm, options.seed)?;
+        let mut plant = Plant::new(&config, depth_mm, options.seed)?;
+        // The firmware's sensor task reads the part; the plant's model of
+        // one must not race it.
+        plant.sensor_mut().attach_driver();
         let rig = Arc::new(Mutex::new(Rig {
             plant,
             atmosphere_kpa: config.sensor.atmosphere_kpa,
