@@ -972,15 +972,16 @@ fn diagnose_skipping(
         }
     }
 
-    let final_report = |fit: &Fit| -> Result<(ResidualReport, Option<String>)> {
-        let (r, preds) = residual(&all, &fit.model()?);
+    let final_report = |fit: &Fit| -> Result<(RigModel, ResidualReport, Option<String>)> {
+        let model = fit.model()?;
+        let (r, preds) = residual(&all, &model);
         let r: Vec<f64> = all.used().map(|i| r[i]).collect();
         let preds: Vec<_> = all.used().map(|i| preds[i]).collect();
         let report = analyse(&kept, &r, &preds);
         let unexplained = unexplained(&report, noise);
-        Ok((report, unexplained))
+        Ok((model, report, unexplained))
     };
-    let (mut report, mut unexplained) = final_report(&current)?;
+    let (mut final_model, mut report, mut unexplained) = final_report(&current)?;
     // With the residual left unexplained, something outside the library
     // is at work, and a physical effect that took only a minority of what
     // was left in its round may be that something's partner in the fit
@@ -988,19 +989,21 @@ fn diagnose_skipping(
     // follows part of the time): it is withdrawn and reported as such.
     let mut withdrawn = Vec::new();
     if unexplained.is_some() {
-        let minor: Vec<Withdrawn> = selected
+        let minor: Vec<Withdrawn> = current
+            .space
+            .effects
             .iter()
-            .filter(|name| EffectSpec::by_name(name).is_ok_and(|s| !s.kind.is_baseline_form()))
-            .filter_map(|name| {
+            .filter(|e| !e.spec.kind.is_baseline_form())
+            .filter_map(|e| {
                 // Its round is the last in which it was a candidate.
                 let share = rounds
                     .iter()
                     .rev()
                     .flatten()
-                    .find(|c| &c.effect == name)?
+                    .find(|c| c.effect == e.spec.name)?
                     .excess_explained;
                 (share < opts.min_excess_explained_unexplained).then(|| Withdrawn {
-                    effect: name.clone(),
+                    effect: e.spec.name.to_owned(),
                     excess_explained: share,
                 })
             })
@@ -1018,12 +1021,11 @@ fn diagnose_skipping(
             current_heldout = heldout(&fit, &data, &masks, opts);
             current = fit;
             selected.retain(|s| !out(s));
-            final_confounds.retain(|c: &Confound| !out(c.param.split('.').next().unwrap_or("")));
-            (report, unexplained) = final_report(&current)?;
+            final_confounds.retain(|c: &Confound| !out(&c.effect));
+            (final_model, report, unexplained) = final_report(&current)?;
             withdrawn = minor;
         }
     }
-    let final_model = current.model()?;
     let final_rmse = report.overall.rmse_kpa;
     let selected_details = selected
         .iter()
