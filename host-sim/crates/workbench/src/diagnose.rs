@@ -30,8 +30,12 @@ use rig::Experiment;
 /// Selection thresholds and effort.
 #[derive(Clone, Copy, Debug)]
 pub struct DiagnoseOptions {
-    /// Calibration settings of full fits.
+    /// Calibration settings of the candidates' full fits.
     pub fit: FitOptions,
+    /// Calibration settings that refine each model the diagnosis accepts
+    /// (from where its candidate fit left it), so that the next round
+    /// starts, and the report ends, at the floor of the fit's valley.
+    pub polish: FitOptions,
     /// Iterations of each cross-validation refit (warm started).
     pub cv_iterations: usize,
     /// Most cross-validation folds.
@@ -101,7 +105,13 @@ impl DiagnoseOptions {
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         Self {
-            fit: FitOptions::default(),
+            // Forward differences for the many candidate fits; the accepted
+            // model is refined with central ones (`polish`).
+            fit: FitOptions {
+                refine_central: false,
+                ..FitOptions::default()
+            },
+            polish: FitOptions::default(),
             cv_iterations: 6,
             max_folds: 4,
             cv_top: 3,
@@ -425,8 +435,10 @@ impl Heldout {
 
 /// Held-out RMSE of `space` (warm start from `full`).
 fn heldout(full: &Fit, data: &Dataset, masks: &[Vec<bool>], opts: &DiagnoseOptions) -> Heldout {
+    // Short warm refits that score held-out error: forward differences.
     let cv = FitOptions {
         max_iterations: opts.cv_iterations,
+        refine_central: false,
         ..opts.fit
     };
     let parts: Vec<(f64, usize)> = masks
@@ -472,6 +484,15 @@ fn score(fit: &Fit, heldout_rmse_kpa: f64) -> ModelScore {
         heldout_rmse_kpa,
         bic: fit.bic(),
         params: fit.params.clone(),
+    }
+}
+
+/// `fit` refined with `opts.polish` from where it stands; `fit` itself
+/// where the refinement fails or ends higher.
+fn polished(fit: Fit, data: &Dataset, opts: &DiagnoseOptions) -> Fit {
+    match calibrate(&fit.space, data, None, opts.polish) {
+        Ok(better) if better.ssr <= fit.ssr => better,
+        _ => fit,
     }
 }
 
@@ -933,7 +954,7 @@ fn diagnose_skipping(
                     }
                     selected.push(e.spec.name.to_owned());
                 }
-                current = fit;
+                current = polished(fit, &data, opts);
                 current_heldout = h;
             }
             None => {
@@ -961,7 +982,7 @@ fn diagnose_skipping(
                     Some((fit, cand)) => {
                         current_heldout = heldout(fit, &data, &masks, opts);
                         selected.push(cand.effect.clone());
-                        current = fit.clone();
+                        current = polished(fit.clone(), &data, opts);
                     }
                     None => {
                         final_confounds = found;
@@ -1019,7 +1040,7 @@ fn diagnose_skipping(
                 .collect();
             let fit = fit_effects(basis, &data, current.space.baseline, effects, opts.fit)?;
             current_heldout = heldout(&fit, &data, &masks, opts);
-            current = fit;
+            current = polished(fit, &data, opts);
             selected.retain(|s| !out(s));
             final_confounds.retain(|c: &Confound| !out(&c.effect));
             (final_model, report, unexplained) = final_report(&current)?;

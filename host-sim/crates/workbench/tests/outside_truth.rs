@@ -150,6 +150,21 @@ fn a_bubble_the_forms_partly_mimic_is_still_named() {
 }
 
 #[test]
+fn a_bubble_in_a_shallow_valley_is_fitted_to_its_floor() {
+    // Second rig, seed 1, no [skin]: the skin's shape form takes part of
+    // the 5 mL bubble's give and the fit's valley along the volume is
+    // shallow and curved. The candidate's fit stopped at 4.23 ± 0.15 mL,
+    // above the RMSE the volume's profile reaches at 5 mL; the accepted
+    // model, refined (restarted, then central differences), ends at
+    // 4.68 mL. Without the refinement this fails.
+    let truth = Truth::second_rig(vec![Hidden::TrappedAir(5.0)], 1);
+    let (_, d) = diagnosed(&truth);
+    assert_eq!(effects(&d), ["trapped_air"], "{:?}", d.selected);
+    let v = primary(&d, "trapped_air", "gas_volume_ml").unwrap();
+    assert!((v - 5.0).abs() <= 0.15 * 5.0, "{v}");
+}
+
+#[test]
 fn a_bubble_beside_a_stated_skins_scale_is_still_named() {
     // Seed 1 with [skin]: the stated coupon law's scale (≈ 0.965 in the
     // tube) goes in a round before the 5 mL bubble. Fitted from its own
@@ -698,7 +713,13 @@ fn bubble_profile() {
             let data = Dataset::new(&exp).thinned(MAX_FIT_SAMPLES);
             for forms in &sets {
                 let mut line = format!("{label} | [skin] {skin_known} | {}", forms.join(", "));
-                for v in [0.0, 1.0, 2.5, 5.0, 7.5] {
+                let vols: Vec<f64> =
+                    std::env::var("VOLS").map_or(vec![0.0, 1.0, 2.5, 5.0, 7.5], |s| {
+                        s.split(',')
+                            .map(|x| x.parse().expect("VOLS: mL, comma separated"))
+                            .collect()
+                    });
+                for v in vols {
                     let mut effects: Vec<EffectInstance> = forms
                         .iter()
                         .map(|f| {
@@ -719,7 +740,7 @@ fn bubble_profile() {
                         .free
                         .retain(|(slot, _)| !matches!(slot, Slot::Effect(e, _) if *e == held));
                     let fit = calibrate(&space, &data, None, FitOptions::default()).unwrap();
-                    line += &format!(" | {v} mL: {:.5} kPa, BIC {:.1}", fit.rmse_kpa, fit.bic());
+                    line += &format!(" | {v} mL: {:.6} kPa, BIC {:.1}", fit.rmse_kpa, fit.bic());
                 }
                 println!("{line}");
             }
