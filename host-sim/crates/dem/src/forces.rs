@@ -524,6 +524,9 @@ struct Inputs<'a> {
     /// Whether the bed is too large for the caches, so that the pass
     /// prefetches what it will reach out of order ([`PREFETCH_FROM`]).
     far: bool,
+    /// Whether the sums already hold the body force and no torque (the
+    /// integrator's sweep set them, in the same operations).
+    preset: bool,
 }
 
 /// Runs `$call` on `$run` in its AVX2 copy when `$simd` says so (the
@@ -639,9 +642,11 @@ impl PairRun<'_> {
             // No particles, so no pairs and nothing incoming.
             return;
         }
-        for (k, (f, t)) in f.iter_mut().zip(t.iter_mut()).enumerate() {
-            *f = x.body_accel * p.mass_kg[lo + k];
-            *t = Vector3::zeros();
+        if !x.preset {
+            for (k, (f, t)) in f.iter_mut().zip(t.iter_mut()).enumerate() {
+                *f = x.body_accel * p.mass_kg[lo + k];
+                *t = Vector3::zeros();
+            }
         }
         for &c in incoming {
             let j = x.pj[x.cross[c as usize] as usize] as usize;
@@ -745,6 +750,7 @@ pub(crate) fn pair_forces(
     blocks: &mut Blocks,
     packed: &Packed,
     images: &Images,
+    preset: bool,
 ) {
     let simd = simd();
     blocks.split(list, rayon::current_num_threads() * BLOCKS_PER_WORKER);
@@ -773,6 +779,7 @@ pub(crate) fn pair_forces(
         cross,
         cross_force: &[],
         far: p.len() >= PREFETCH_FROM,
+        preset,
     };
 
     // 1. The straddling pairs, in as many pieces of equal count as there
@@ -1260,6 +1267,7 @@ mod pass_parts_alone {
                         &mut state.blocks,
                         &state.packed,
                         &state.images,
+                        false,
                     );
                 }
                 best = best.min(started.elapsed().as_secs_f64() / 300.0);

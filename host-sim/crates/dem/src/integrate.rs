@@ -14,19 +14,23 @@ const CHUNK: usize = 1024;
 /// With `close_previous`, the previous step's closing half kick (the same
 /// forces, since nothing changed them) is applied first, in the same
 /// operations as [`kick`]: one sweep instead of two, the same bits.
-/// Returns the largest squared displacement from `reference_m` (m²), for
-/// the Verlet-list check.
+/// Once read, each force and torque is set to the body force
+/// `body_accel_m_s2` × m and zero, where the pair pass would start its
+/// sums (on a bed beyond the caches, a sweep of its own that came from
+/// memory). Returns the largest squared displacement from `reference_m`
+/// (m²), for the Verlet-list check.
 pub(crate) fn kick_drift(
     p: &mut Particles,
     dt_s: f64,
+    body_accel_m_s2: Vector3<f64>,
     reference_m: &[Vector3<f64>],
     packed: &mut Packed,
     close_previous: bool,
 ) -> f64 {
     if close_previous {
-        kick_drift_in::<true>(p, dt_s, reference_m, packed)
+        kick_drift_in::<true>(p, dt_s, body_accel_m_s2, reference_m, packed)
     } else {
-        kick_drift_in::<false>(p, dt_s, reference_m, packed)
+        kick_drift_in::<false>(p, dt_s, body_accel_m_s2, reference_m, packed)
     }
 }
 
@@ -35,6 +39,7 @@ pub(crate) fn kick_drift(
 fn kick_drift_in<const CLOSE: bool>(
     p: &mut Particles,
     dt_s: f64,
+    body: Vector3<f64>,
     reference_m: &[Vector3<f64>],
     packed: &mut Packed,
 ) -> f64 {
@@ -45,8 +50,8 @@ fn kick_drift_in<const CLOSE: bool>(
         p.position_m.par_chunks_mut(CHUNK),
         p.velocity_m_s.par_chunks_mut(CHUNK),
         p.angular_velocity_rad_s.par_chunks_mut(CHUNK),
-        p.force_n.par_chunks(CHUNK),
-        p.torque_n_m.par_chunks(CHUNK),
+        p.force_n.par_chunks_mut(CHUNK),
+        p.torque_n_m.par_chunks_mut(CHUNK),
         p.inv_mass_per_kg.par_chunks(CHUNK),
         p.inv_inertia_per_kg_m2.par_chunks(CHUNK),
         reference_m.par_chunks(CHUNK),
@@ -60,6 +65,9 @@ fn kick_drift_in<const CLOSE: bool>(
             for k in 0..x.len() {
                 let dv = f[k] * (h * im[k]);
                 let dw = t[k] * (h * ii[k]);
+                let i = c * CHUNK + k;
+                f[k] = body * m[i];
+                t[k] = Vector3::zeros();
                 if CLOSE {
                     v[k] += dv;
                     w[k] += dw;
@@ -68,7 +76,6 @@ fn kick_drift_in<const CLOSE: bool>(
                 w[k] += dw;
                 x[k] += v[k] * dt_s;
                 max2 = max2.max((x[k] - x0[k]).norm_squared());
-                let i = c * CHUNK + k;
                 (sphere[k], motion[k]) = pack_one(&x[k], &v[k], &w[k], r[i], m[i]);
             }
             max2

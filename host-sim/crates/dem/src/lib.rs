@@ -290,7 +290,8 @@ impl State {
 
     /// Contact, wall and body forces at the current positions, then the
     /// sink's external forces. `packed_current`: the integrator has just
-    /// packed the state (else it is packed here).
+    /// packed the state and set the sums to the body force (else both are
+    /// done here).
     fn evaluate_forces(&mut self, params: &Params, sink: &mut impl Sink, packed_current: bool) {
         if !packed_current {
             self.particles.pack_into(&mut self.packed);
@@ -302,6 +303,7 @@ impl State {
             &mut self.blocks,
             &self.packed,
             &self.images,
+            packed_current,
         );
         self.wall_contacts.cull(
             &params.walls,
@@ -374,10 +376,14 @@ pub fn advance(
         let max2 = integrate::kick_drift(
             &mut state.particles,
             params.dt_s,
+            params.gravity_m_s2 * params.buoyancy_factor(),
             &state.neighbours.reference_m,
             &mut state.packed,
             pending,
         );
+        // The sums now hold only the body force: until the pass below has
+        // run, the state's forces are not its forces.
+        state.forces_ready = false;
         if !max2.is_finite() {
             let bad = state
                 .particles
@@ -394,6 +400,7 @@ pub fn advance(
         state.time_s += params.dt_s;
         // Nothing moved the particles since kick_drift packed them.
         state.evaluate_forces(params, sink, true);
+        state.forces_ready = true;
         state.step_count += 1;
         pending = left > 0;
         if !pending {
