@@ -46,22 +46,17 @@ const BLOCKS_PER_WORKER: usize = 1;
 /// ≈ 25 ns against ≈ 5 ns); only the first split of a run relies on it.
 const TOUCHING_WEIGHT: f64 = 5.0;
 
-/// Asks the cache for `rows[k]` (its first 64 bytes and, for a longer
-/// row, the next 64); a hint only, nothing happens off the x86-64 or out
-/// of range.
+/// Asks the cache for the line that holds the start of `rows[k]` (a
+/// sphere or motion row is one aligned line; a 24-byte force or torque
+/// may reach into the next, which is left to the hardware); a hint only,
+/// nothing happens off the x86-64 or out of range.
 #[inline(always)]
 fn prefetch<T>(rows: &[T], k: usize) {
     #[cfg(target_arch = "x86_64")]
     if let Some(row) = rows.get(k) {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let at = (row as *const T).cast::<i8>();
-        // SAFETY: a prefetch never faults, and `at` points into `rows`.
-        unsafe {
-            _mm_prefetch::<_MM_HINT_T0>(at);
-            if std::mem::size_of::<T>() > 64 {
-                _mm_prefetch::<_MM_HINT_T0>(at.wrapping_add(64));
-            }
-        }
+        // SAFETY: a prefetch never faults, and the pointer is into `rows`.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((row as *const T).cast::<i8>()) }
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (rows, k);
