@@ -19,6 +19,16 @@ fn diagnosed(truth: &Truth) -> (Experiment, Diagnosis) {
     (exp, d)
 }
 
+/// The diagnosis of `truth`, a 5 mL bubble, checked to name the bubble
+/// alone and within 15 % of its volume.
+fn bubble_named_within_15_percent(truth: &Truth) -> Diagnosis {
+    let (_, d) = diagnosed(truth);
+    assert_eq!(effects(&d), ["trapped_air"], "{:?}", d.selected);
+    let v = primary(&d, "trapped_air", "gas_volume_ml").unwrap();
+    assert!((v - 5.0).abs() <= 0.15 * 5.0, "{v}");
+    d
+}
+
 fn primary(d: &Diagnosis, effect: &str, param: &str) -> Option<f64> {
     let key = format!("{effect}.{param}");
     d.params.iter().find(|p| p.name == key).map(|p| p.value)
@@ -136,10 +146,7 @@ fn a_bubble_the_forms_partly_mimic_is_still_named() {
     // once they are in the air changes the reading by less than one noise
     // floor; it still pays on every count and is named at its volume.
     let truth = Truth::new(vec![Hidden::TrappedAir(5.0)], 1);
-    let (_, d) = diagnosed(&truth);
-    assert_eq!(effects(&d), ["trapped_air"], "{:?}", d.selected);
-    let v = primary(&d, "trapped_air", "gas_volume_ml").unwrap();
-    assert!((v - 5.0).abs() <= 0.15 * 5.0, "{v}");
+    let d = bubble_named_within_15_percent(&truth);
     let change = d
         .every_candidate()
         .filter(|c| c.effect == "trapped_air" && c.refusals.is_empty())
@@ -158,10 +165,7 @@ fn a_bubble_in_a_shallow_valley_is_fitted_to_its_floor() {
     // model, refined (restarted, then central differences), ends at
     // 4.68 mL. Without the refinement this fails.
     let truth = Truth::second_rig(vec![Hidden::TrappedAir(5.0)], 1);
-    let (_, d) = diagnosed(&truth);
-    assert_eq!(effects(&d), ["trapped_air"], "{:?}", d.selected);
-    let v = primary(&d, "trapped_air", "gas_volume_ml").unwrap();
-    assert!((v - 5.0).abs() <= 0.15 * 5.0, "{v}");
+    bubble_named_within_15_percent(&truth);
 }
 
 #[test]
@@ -173,10 +177,7 @@ fn a_bubble_beside_a_stated_skins_scale_is_still_named() {
     // left it (5.9 mL), it comes back to its volume.
     let mut truth = Truth::new(vec![Hidden::TrappedAir(5.0)], 1);
     truth.skin_known = true;
-    let (_, d) = diagnosed(&truth);
-    assert_eq!(effects(&d), ["trapped_air"], "{:?}", d.selected);
-    let v = primary(&d, "trapped_air", "gas_volume_ml").unwrap();
-    assert!((v - 5.0).abs() <= 0.15 * 5.0, "{v}");
+    bubble_named_within_15_percent(&truth);
 }
 
 #[test]
@@ -697,6 +698,12 @@ fn bubble_profile() {
         .split(';')
         .map(|s| s.split(',').filter(|x| !x.is_empty()).collect())
         .collect();
+    // The air volumes held (mL): `VOLS=4,4.5,5` for others.
+    let vols: Vec<f64> = std::env::var("VOLS").map_or(vec![0.0, 1.0, 2.5, 5.0, 7.5], |s| {
+        s.split(',')
+            .map(|x| x.parse().expect("VOLS: mL, comma separated"))
+            .collect()
+    });
     let make = chosen_rig();
     let air = EffectSpec::by_name("trapped_air").unwrap();
     for (label, hidden) in [
@@ -713,13 +720,7 @@ fn bubble_profile() {
             let data = Dataset::new(&exp).thinned(MAX_FIT_SAMPLES);
             for forms in &sets {
                 let mut line = format!("{label} | [skin] {skin_known} | {}", forms.join(", "));
-                let vols: Vec<f64> =
-                    std::env::var("VOLS").map_or(vec![0.0, 1.0, 2.5, 5.0, 7.5], |s| {
-                        s.split(',')
-                            .map(|x| x.parse().expect("VOLS: mL, comma separated"))
-                            .collect()
-                    });
-                for v in vols {
+                for &v in &vols {
                     let mut effects: Vec<EffectInstance> = forms
                         .iter()
                         .map(|f| {
