@@ -709,7 +709,7 @@ pub enum BenchCommand {
         /// 7: 980,000).
         #[arg(long, value_delimiter = ',', default_values_t = [1usize, 3, 7])]
         tiles: Vec<usize>,
-        /// Timed steps at each size.
+        /// Timed steps at each size, in five rounds (the median round's rate is reported).
         #[arg(long, default_value_t = 500)]
         steps: u64,
         /// Worker thread counts, comma-separated.

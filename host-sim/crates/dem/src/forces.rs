@@ -31,10 +31,16 @@ const PAIR_CHUNK: usize = 256;
 /// time (measured: `bench scaling`, 980,000 grains, 1 worker, 181 →
 /// 139 ns a particle-step at 64 pairs; 16 pairs 171, 128 pairs 138).
 const PREFETCH_PAIRS: usize = 64;
-/// Particles from which the pass prefetches: below, the rows stay in the
-/// caches and the prefetches cost ≈ 5 % (the walled benchmark's 20,000
-/// grains, packed phase 5.59 → 5.89 s).
-const PREFETCH_FROM: usize = 100_000;
+/// Particles from which the bed counts as larger than the caches: the pass
+/// prefetches and the first sweep streams its rows past the caches. Below,
+/// the rows stay in the caches and the prefetches cost ≈ 5 % (the walled
+/// benchmark's 20,000 grains, packed phase 5.59 → 5.89 s).
+const FAR_FROM: usize = 100_000;
+
+/// Whether a bed of `n` particles is larger than the caches ([`FAR_FROM`]).
+pub(crate) fn far(n: usize) -> bool {
+    n >= FAR_FROM
+}
 /// Particles per parallel task in the wall pass (also fixes the order of
 /// the wall-force partial sums, so totals do not depend on the thread count).
 const GATHER_CHUNK: usize = 512;
@@ -517,7 +523,7 @@ struct Inputs<'a> {
     cross: &'a [u32],
     cross_force: &'a [ContactForce],
     /// Whether the bed is too large for the caches, so that the pass
-    /// prefetches what it will reach out of order ([`PREFETCH_FROM`]).
+    /// prefetches what it will reach out of order ([`FAR_FROM`]).
     far: bool,
     /// Whether the sums already hold the body force and no torque (the
     /// integrator's sweep set them, in the same operations).
@@ -773,7 +779,7 @@ pub(crate) fn pair_forces(
         pj,
         cross,
         cross_force: &[],
-        far: p.len() >= PREFETCH_FROM,
+        far: far(p.len()),
         preset,
     };
 

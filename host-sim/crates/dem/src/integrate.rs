@@ -4,7 +4,8 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::particles::{pack_one, Packed, Particles};
+use super::forces::far;
+use super::particles::{pack_one, Motion, Packed, Particles, Sphere};
 
 /// Particles per parallel task.
 const CHUNK: usize = 1024;
@@ -27,21 +28,30 @@ pub(crate) fn kick_drift(
     packed: &mut Packed,
     close_previous: bool,
 ) -> f64 {
-    if close_previous {
-        kick_drift_in::<true>(p, dt_s, body_accel_m_s2, reference_m, packed)
-    } else {
-        kick_drift_in::<false>(p, dt_s, body_accel_m_s2, reference_m, packed)
+    let args = (p, dt_s, body_accel_m_s2, reference_m, packed);
+    match (close_previous, far(args.0.len())) {
+        (true, true) => kick_drift_in::<true, true>(args),
+        (true, false) => kick_drift_in::<true, false>(args),
+        (false, true) => kick_drift_in::<false, true>(args),
+        (false, false) => kick_drift_in::<false, false>(args),
     }
 }
 
+/// The arguments of [`kick_drift`] but the flag.
+type KickDriftArgs<'a> = (
+    &'a mut Particles,
+    f64,
+    Vector3<f64>,
+    &'a [Vector3<f64>],
+    &'a mut Packed,
+);
+
 /// [`kick_drift`], compiled with and without the closing half kick
-/// (`CLOSE`) so that neither pays a branch per particle.
-fn kick_drift_in<const CLOSE: bool>(
-    p: &mut Particles,
-    dt_s: f64,
-    body: Vector3<f64>,
-    reference_m: &[Vector3<f64>],
-    packed: &mut Packed,
+/// (`CLOSE`) and with and without streaming stores of the packed rows
+/// (`STREAM`, on beds beyond the caches: see [`store_rows`]) so that
+/// neither pays a branch per particle.
+fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
+    (p, dt_s, body, reference_m, packed): KickDriftArgs,
 ) -> f64 {
     let h = 0.5 * dt_s;
     packed.resize(p.len());
@@ -76,11 +86,57 @@ fn kick_drift_in<const CLOSE: bool>(
                 w[k] += dw;
                 x[k] += v[k] * dt_s;
                 max2 = max2.max((x[k] - x0[k]).norm_squared());
-                (sphere[k], motion[k]) = pack_one(&x[k], &v[k], &w[k], r[i], m[i]);
+                let rows = pack_one(&x[k], &v[k], &w[k], r[i], m[i]);
+                store_rows::<STREAM>(&mut sphere[k], &mut motion[k], rows);
+            }
+            if STREAM {
+                fence_streams();
             }
             max2
         })
         .reduce(|| 0.0, f64::max)
+}
+
+/// Stores a particle's packed rows; with `STREAM`, past the caches
+/// (non-temporal stores). The rows are only written here, so a plain store
+/// first reads each line from memory to own it; on a bed larger than the
+/// caches the pass that reads them comes long after, from memory anyway.
+#[inline(always)]
+fn store_rows<const STREAM: bool>(
+    sphere: &mut Sphere,
+    motion: &mut Motion,
+    rows: (Sphere, Motion),
+) {
+    #[cfg(target_arch = "x86_64")]
+    if STREAM {
+        use std::arch::x86_64::{_mm_loadu_pd, _mm_stream_pd};
+        let (s, m) = rows;
+        let halves = |q: &[f64; 4]| [[q[0], q[1]], [q[2], q[3]]];
+        let put = |to: *mut f64, q: &[f64; 4]| {
+            for (h, half) in halves(q).iter().enumerate() {
+                // SAFETY: SSE2 is part of x86-64; `to` points into a row
+                // aligned to 32 bytes (a sphere) or 64 (a motion row), so
+                // each half is 16-byte aligned, as the store needs.
+                unsafe { _mm_stream_pd(to.add(2 * h), _mm_loadu_pd(half.as_ptr())) }
+            }
+        };
+        put(sphere.0.as_mut_ptr(), &s.0);
+        put(motion.0[0].as_mut_ptr(), &m.0[0]);
+        put(motion.0[1].as_mut_ptr(), &m.0[1]);
+        return;
+    }
+    (*sphere, *motion) = rows;
+}
+
+/// Orders a task's streaming stores before what follows it (they are not
+/// ordered by the task's join otherwise).
+#[inline(always)]
+fn fence_streams() {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: SSE is part of x86-64.
+    unsafe {
+        std::arch::x86_64::_mm_sfence()
+    }
 }
 
 /// Second half: v += dt/2 F/m, ω += dt/2 τ/I.
@@ -101,4 +157,61 @@ pub fn kick(p: &mut Particles, dt_s: f64) {
                 w[k] += t[k] * (h * ii[k]);
             }
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Particles in motion with forces on them, more than one task's chunk.
+    fn moving(n: usize) -> Particles {
+        let mut p = Particles::new();
+        for i in 0..n {
+            let s = i as f64;
+            let x = Vector3::new(1e-3 * s, 2e-3 * (s * 0.7).sin(), -1e-3 * s.sqrt());
+            let v = Vector3::new((s * 0.3).cos(), 0.1 * s.sin(), -0.01 * s);
+            p.push(x, v, 1e-3 * (1.0 + 0.001 * s), 2920.0).unwrap();
+            p.angular_velocity_rad_s[i] = Vector3::new(0.5 * s.sin(), -s.cos(), 2.0);
+            p.force_n[i] = Vector3::new(1e-4 * s.cos(), -2e-4, 3e-4 * s.sin());
+            p.torque_n_m[i] = Vector3::new(1e-7, -1e-7 * s.sin(), 1e-8 * s);
+        }
+        p
+    }
+
+    #[test]
+    fn streamed_rows_are_the_stored_ones() {
+        // The far-bed sweep writes the packed rows past the caches; it
+        // must leave every row and every particle as the plain sweep does.
+        let n = 2 * CHUNK + 37;
+        let reference: Vec<_> = moving(n).position_m;
+        let g = Vector3::new(0.0, 0.0, -9.81);
+        for close in [false, true] {
+            let (mut a, mut b) = (moving(n), moving(n));
+            let (mut pa, mut pb) = (Packed::default(), Packed::default());
+            let args = |p, packed| (p, 1.5e-5, g, &reference[..], packed);
+            let (ma, mb) = if close {
+                (
+                    kick_drift_in::<true, false>(args(&mut a, &mut pa)),
+                    kick_drift_in::<true, true>(args(&mut b, &mut pb)),
+                )
+            } else {
+                (
+                    kick_drift_in::<false, false>(args(&mut a, &mut pa)),
+                    kick_drift_in::<false, true>(args(&mut b, &mut pb)),
+                )
+            };
+            assert!(ma > 0.0);
+            assert_eq!(ma.to_bits(), mb.to_bits());
+            for i in 0..n {
+                assert_eq!(pa.sphere[i].0, pb.sphere[i].0, "sphere row {i}");
+                assert_eq!(pa.motion[i].0, pb.motion[i].0, "motion row {i}");
+                assert_eq!(a.position_m[i], b.position_m[i]);
+                assert_eq!(a.velocity_m_s[i], b.velocity_m_s[i]);
+                assert_eq!(a.force_n[i], b.force_n[i]);
+            }
+            // And the rows are the state's, not stale.
+            let (x, r) = (&a.position_m[n - 1], a.radius_m[n - 1]);
+            assert_eq!(pb.sphere[n - 1].0, [x.x, x.y, x.z, r]);
+        }
+    }
 }

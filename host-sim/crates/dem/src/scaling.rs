@@ -23,6 +23,12 @@ pub const SETTLE_STEPS: u64 = 21_000;
 /// Untimed steps after tiling, while the tiles' contact history builds.
 pub const WARM_UP_STEPS: u64 = 200;
 
+/// Rounds the timed steps are split into; the median round's rate is
+/// reported, so that a moment of load from elsewhere on a shared machine
+/// does not decide a size's figure (the 20,000-grain size runs only a
+/// second or two).
+pub const ROUNDS: u64 = 5;
+
 /// What to measure.
 #[derive(Clone, Debug)]
 pub struct ScalingOptions {
@@ -41,7 +47,8 @@ pub struct ScalingRow {
     pub particles: usize,
     /// Worker threads.
     pub workers: usize,
-    /// N × steps / wall time of the timed steps.
+    /// N × steps / wall time of the timed steps: the median of
+    /// [`ROUNDS`] rounds.
     pub particle_steps_per_s: f64,
     /// Mean particle–particle contacts per particle after the timed steps.
     pub mean_contacts: f64,
@@ -149,11 +156,19 @@ pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<Scaling
             let mut state = tiled(&bed, k)?;
             let n = state.particles.len();
             progress(&format!("{n} particles, {w} worker(s)"));
-            let (wall_s, contacts) = pool.install(|| -> Result<(f64, f64)> {
+            let (rate, contacts) = pool.install(|| -> Result<(f64, f64)> {
                 dem::advance(&params, &mut state, &mut (), WARM_UP_STEPS)?;
-                let t0 = Instant::now();
-                dem::advance(&params, &mut state, &mut (), opts.steps)?;
-                Ok((t0.elapsed().as_secs_f64(), state.mean_contacts()))
+                let mut rates = Vec::new();
+                for r in 0..ROUNDS {
+                    let steps = opts.steps * (r + 1) / ROUNDS - opts.steps * r / ROUNDS;
+                    let t0 = Instant::now();
+                    dem::advance(&params, &mut state, &mut (), steps)?;
+                    if steps > 0 {
+                        rates.push(n as f64 * steps as f64 / t0.elapsed().as_secs_f64());
+                    }
+                }
+                rates.sort_unstable_by(f64::total_cmp);
+                Ok((rates[rates.len() / 2], state.mean_contacts()))
             })?;
             let kick_s = pool.install(|| {
                 let mut p = state.particles.clone();
@@ -166,7 +181,7 @@ pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<Scaling
             rows.push(ScalingRow {
                 particles: n,
                 workers: w,
-                particle_steps_per_s: n as f64 * opts.steps as f64 / wall_s,
+                particle_steps_per_s: rate,
                 mean_contacts: contacts,
                 listed_pairs_per_particle: state.neighbours().pair_count() as f64 / n as f64,
                 peak_bytes_per_particle: peak_rss_bytes().map(|b| b / n as f64),
