@@ -19,7 +19,7 @@ const CHUNK: usize = 1024;
 /// `body_accel_m_s2` × m and zero, where the pair pass would start its
 /// sums (on a bed beyond the caches, a sweep of its own that came from
 /// memory). Returns the largest squared displacement from `reference_m`
-/// (m²), for the Verlet-list check.
+/// (m²), for the Verlet-list check: NaN if any position is NaN.
 pub(crate) fn kick_drift(
     p: &mut Particles,
     dt_s: f64,
@@ -56,7 +56,7 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
     let h = 0.5 * dt_s;
     packed.resize(p.len());
     let (r, m) = (&p.radius_m, &p.mass_kg);
-    (
+    let max2 = (
         p.position_m.par_chunks_mut(CHUNK),
         p.velocity_m_s.par_chunks_mut(CHUNK),
         p.angular_velocity_rad_s.par_chunks_mut(CHUNK),
@@ -71,7 +71,11 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
         .into_par_iter()
         .enumerate()
         .map(|(c, (x, v, w, f, t, im, ii, x0, sphere, motion))| {
-            let mut max2 = 0.0f64;
+            // The largest squared displacement as bits: for the values
+            // here (≥ 0, or NaN) the integers order as the numbers do, NaN
+            // above all, so one NaN makes the result NaN (`f64::max` would
+            // drop it and a bed gone non-finite would step on unseen).
+            let mut max2 = 0u64;
             for k in 0..x.len() {
                 let dv = f[k] * (h * im[k]);
                 let dw = t[k] * (h * ii[k]);
@@ -85,7 +89,7 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
                 v[k] += dv;
                 w[k] += dw;
                 x[k] += v[k] * dt_s;
-                max2 = max2.max((x[k] - x0[k]).norm_squared());
+                max2 = max2.max((x[k] - x0[k]).norm_squared().to_bits());
                 let rows = pack_one(&x[k], &v[k], &w[k], r[i], m[i]);
                 store_rows::<STREAM>(&mut sphere[k], &mut motion[k], rows);
             }
@@ -94,7 +98,8 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
             }
             max2
         })
-        .reduce(|| 0.0, f64::max)
+        .reduce(|| 0, u64::max);
+    f64::from_bits(max2)
 }
 
 /// Stores a particle's packed rows; with `STREAM`, past the caches

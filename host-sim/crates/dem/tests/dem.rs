@@ -770,3 +770,21 @@ fn bad_input_is_an_error_not_a_panic() {
         "{outcome:?}"
     );
 }
+
+#[test]
+fn a_bed_gone_non_finite_stops_with_the_particle_named() {
+    // A NaN velocity, as a blown-up contact or a bad external force would
+    // leave, makes a NaN position at the next drift: the step must stop
+    // and name the particle, not step on with a bed that is NaN.
+    for bad in [f64::NAN, f64::INFINITY] {
+        let (params, mut state) = small_bed(2, 0.0);
+        for _ in 0..10 {
+            step(&params, &mut state, &mut ()).unwrap();
+        }
+        state.particles.velocity_m_s[13].y = bad;
+        match step(&params, &mut state, &mut ()) {
+            Err(dem::DemError::NonFinite { particle }) => assert_eq!(particle, 13),
+            other => panic!("{bad} velocity: {other:?}"),
+        }
+    }
+}
