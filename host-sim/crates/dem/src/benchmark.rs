@@ -200,6 +200,10 @@ impl BenchReport {
 struct Progress(ProgressBar);
 
 impl dem::Sink for Progress {
+    fn adds_external_forces(&self) -> bool {
+        false
+    }
+
     fn step_done(&mut self, state: &State) {
         if state.step_count.is_multiple_of(100) {
             self.0.set_position(state.step_count);

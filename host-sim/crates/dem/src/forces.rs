@@ -849,23 +849,25 @@ pub(crate) fn pair_forces(
 
 /// Geometry of particle i against `wall`, if they touch.
 #[inline(always)]
-fn wall_geometry(p: &Particles, i: usize, wall: &Wall) -> Option<ContactGeometry> {
-    let r = p.radius_m[i];
-    let (n, overlap) = wall.touch(&p.position_m[i], r)?;
+fn wall_geometry(p: &Packed, i: usize, wall: &Wall) -> Option<ContactGeometry> {
+    let (sphere, motion) = (&p.sphere[i], &p.motion[i]);
+    let r = sphere.radius_m();
+    let (n, overlap) = wall.touch(&sphere.position_m(), r)?;
     Some(ContactGeometry::sphere_on_surface(
         n,
         overlap,
         r,
-        p.mass_kg[i],
-        p.velocity_m_s[i] - wall.velocity_m_s - n * wall.normal_velocity_m_s,
-        p.angular_velocity_rad_s[i],
+        motion.mass_kg(),
+        motion.velocity_m_s() - wall.velocity_m_s - n * wall.normal_velocity_m_s,
+        motion.spin_rad_s(),
     ))
 }
 
 /// One wall-pass chunk (particles from `lo`): what it reads.
 struct WallChunk<'a> {
     params: &'a Params,
-    p: &'a Particles,
+    /// The particles' current state, packed.
+    p: &'a Packed,
     /// The chunk's candidate particles, ascending.
     candidates: &'a [u32],
     near: &'a [u64],
@@ -987,7 +989,8 @@ impl WallChunk<'_> {
             wh[k * stride + w] = h.map(|c| c.0[l]);
             let cf = cf.lane(l);
             f[k] += cf.force_n;
-            t[k] += cf.torque_per_radius_n * self.p.radius_m[self.lo + k] + cf.rolling_torque_n_m;
+            let r = self.p.sphere[self.lo + k].radius_m();
+            t[k] += cf.torque_per_radius_n * r + cf.rolling_torque_n_m;
             sums.0[w] -= cf.force_n;
             // The push along the contact normal (wall → particle).
             sums.1[w] += cf.force_n.dot(&batch.g[l].normal);
@@ -1003,13 +1006,17 @@ impl WallChunk<'_> {
 
 /// Adds, per particle, its wall contacts to `p.force_n`/`p.torque_n_m`,
 /// keeping the wall contacts' history and each chunk's force on each wall
-/// in `walls`.
-pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallContacts) {
+/// in `walls`; `packed` is the particles' current state.
+pub(crate) fn wall_forces(
+    params: &Params,
+    p: &mut Particles,
+    packed: &Packed,
+    walls: &mut WallContacts,
+) {
     let simd = simd();
     let stride = params.walls.len().max(1);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
-    let pr: &Particles = p;
     let near = &walls.near;
     let (candidates, candidate_start) = (&walls.candidates, &walls.candidate_start);
     (
@@ -1025,7 +1032,7 @@ pub(crate) fn wall_forces(params: &Params, p: &mut Particles, walls: &mut WallCo
         .for_each(|(c, (f, t, wh, mask, wp, wn))| {
             let chunk = WallChunk {
                 params,
-                p: pr,
+                p: packed,
                 candidates: &candidates[candidate_start[c]..candidate_start[c + 1]],
                 near,
                 lo: c * GATHER_CHUNK,

@@ -102,6 +102,69 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
     f64::from_bits(max2)
 }
 
+/// [`kick_drift`] with the motion read from and written to `packed`
+/// alone (which must hold the current positions, velocities and spins):
+/// `p`'s own positions, velocities and spins are left behind, for
+/// [`Packed::unpack_into`] to bring up to date. The same operations in
+/// the same order, so the same bits.
+pub(crate) fn kick_drift_rows(
+    p: &mut Particles,
+    dt_s: f64,
+    body_accel_m_s2: Vector3<f64>,
+    reference_m: &[Vector3<f64>],
+    packed: &mut Packed,
+    close_previous: bool,
+) -> f64 {
+    let args = (p, dt_s, body_accel_m_s2, reference_m, packed);
+    if close_previous {
+        kick_drift_rows_in::<true>(args)
+    } else {
+        kick_drift_rows_in::<false>(args)
+    }
+}
+
+/// [`kick_drift_rows`], compiled with and without the closing half kick.
+fn kick_drift_rows_in<const CLOSE: bool>(
+    (p, dt_s, body, reference_m, packed): KickDriftArgs,
+) -> f64 {
+    let h = 0.5 * dt_s;
+    let max2 = (
+        p.force_n.par_chunks_mut(CHUNK),
+        p.torque_n_m.par_chunks_mut(CHUNK),
+        p.inv_mass_per_kg.par_chunks(CHUNK),
+        p.inv_inertia_per_kg_m2.par_chunks(CHUNK),
+        reference_m.par_chunks(CHUNK),
+        packed.sphere.par_chunks_mut(CHUNK),
+        packed.motion.par_chunks_mut(CHUNK),
+    )
+        .into_par_iter()
+        .map(|(f, t, im, ii, x0, sphere, motion)| {
+            // As in `kick_drift_in`: NaN above every displacement.
+            let mut max2 = 0u64;
+            for k in 0..f.len() {
+                let (mut x, r) = (sphere[k].position_m(), sphere[k].radius_m());
+                let m = motion[k].mass_kg();
+                let (mut v, mut w) = (motion[k].velocity_m_s(), motion[k].spin_rad_s());
+                let dv = f[k] * (h * im[k]);
+                let dw = t[k] * (h * ii[k]);
+                f[k] = body * m;
+                t[k] = Vector3::zeros();
+                if CLOSE {
+                    v += dv;
+                    w += dw;
+                }
+                v += dv;
+                w += dw;
+                x += v * dt_s;
+                max2 = max2.max((x - x0[k]).norm_squared().to_bits());
+                (sphere[k], motion[k]) = pack_one(&x, &v, &w, r, m);
+            }
+            max2
+        })
+        .reduce(|| 0, u64::max);
+    f64::from_bits(max2)
+}
+
 /// Stores a particle's packed rows; with `STREAM`, past the caches
 /// (non-temporal stores). The rows are only written here, so a plain store
 /// first reads each line from memory to own it; on a bed larger than the

@@ -177,9 +177,16 @@ pub struct State {
     wall_force_n: Vec<Vector3<f64>>,
     wall_normal_load_n: Vec<f64>,
     forces_ready: bool,
-    /// The particles' state packed for the pair pass; current only right
-    /// after [`integrate::kick_drift`] wrote it.
+    /// The particles' state packed for the pair pass, written by each
+    /// step's first sweep (inside [`advance`], with a sink that adds no
+    /// forces, the only current copy of their motion: `particles_behind`).
     packed: particles::Packed,
+    /// Whether `packed` holds the particles' current motion (positions,
+    /// velocities, spins), so that the next first sweep can read it there.
+    rows_current: bool,
+    /// Whether `particles`' positions, velocities and spins are behind
+    /// `packed` (only inside [`advance`], with a sink that adds no forces).
+    particles_behind: bool,
     /// The periodic axes of the last step's parameters.
     images: Images,
 }
@@ -198,6 +205,8 @@ impl State {
             wall_normal_load_n: Vec::new(),
             forces_ready: false,
             packed: particles::Packed::default(),
+            rows_current: false,
+            particles_behind: false,
             images: Images::default(),
         }
     }
@@ -269,11 +278,31 @@ impl State {
         Ok(())
     }
 
+    /// Brings `particles`' positions, velocities and spins up to the
+    /// packed rows, if they are behind.
+    fn catch_up(&mut self) {
+        if self.particles_behind {
+            self.packed.unpack_into(&mut self.particles);
+            self.particles_behind = false;
+        }
+    }
+
+    /// The closing half kick, on `particles` (brought up to date first).
+    fn closing_kick(&mut self, dt_s: f64) {
+        self.catch_up();
+        integrate::kick(&mut self.particles, dt_s);
+        self.rows_current = false;
+    }
+
     fn rebuild(&mut self, params: &Params) -> Result<(), DemError> {
+        self.catch_up();
         // Back into the box along periodic axes (the separations are
-        // minimum images, so nothing else changes).
+        // minimum images, so nothing else changes). The rows keep the
+        // positions they had (this step's pass reads them as they were
+        // packed), so the next first sweep starts from `particles`.
         for (a, axis) in params.periodic.iter().enumerate() {
             if let Some(axis) = axis {
+                self.rows_current = false;
                 for x in &mut self.particles.position_m {
                     x[a] = axis.wrap(x[a]);
                 }
@@ -294,7 +323,9 @@ impl State {
     /// done here).
     fn evaluate_forces(&mut self, params: &Params, sink: &mut impl Sink, packed_current: bool) {
         if !packed_current {
+            self.catch_up();
             self.particles.pack_into(&mut self.packed);
+            self.rows_current = true;
         }
         forces::pair_forces(
             params,
@@ -311,10 +342,18 @@ impl State {
             &self.neighbours,
             params.skin_m,
         );
-        forces::wall_forces(params, &mut self.particles, &mut self.wall_contacts);
+        forces::wall_forces(
+            params,
+            &mut self.particles,
+            &self.packed,
+            &mut self.wall_contacts,
+        );
         self.wall_contacts
             .totals(&mut self.wall_force_n, &mut self.wall_normal_load_n);
-        sink.add_external_forces(self.time_s, &mut self.particles);
+        if sink.adds_external_forces() {
+            self.catch_up();
+            sink.add_external_forces(self.time_s, &mut self.particles);
+        }
     }
 }
 
@@ -354,12 +393,17 @@ pub fn advance(
         return Ok(());
     }
     params.validate()?;
+    // The caller may have changed the particles since the last call.
+    state.rows_current = false;
+    // Whether the first sweep may take the motion from the packed rows
+    // alone: nothing outside reads the particles until the end.
+    let rows_only = !sink.adds_external_forces();
     // Whether the last step's closing half kick is still to be applied.
     let mut pending = false;
     for left in (0..steps).rev() {
         if let Err(e) = state.prepare(params) {
             if pending {
-                integrate::kick(&mut state.particles, params.dt_s);
+                state.closing_kick(params.dt_s);
             }
             return Err(e);
         }
@@ -367,24 +411,31 @@ pub fn advance(
             // The forces are re-evaluated from the velocities after the
             // closing kick.
             if pending {
-                integrate::kick(&mut state.particles, params.dt_s);
+                state.closing_kick(params.dt_s);
                 pending = false;
             }
             state.evaluate_forces(params, sink, false);
             state.forces_ready = true;
         }
-        let max2 = integrate::kick_drift(
-            &mut state.particles,
-            params.dt_s,
-            params.gravity_m_s2 * params.buoyancy_factor(),
-            &state.neighbours.reference_m,
-            &mut state.packed,
-            pending,
-        );
+        let from_rows = rows_only && state.rows_current;
+        if !from_rows {
+            state.catch_up();
+        }
+        let body = params.gravity_m_s2 * params.buoyancy_factor();
+        let reference = &state.neighbours.reference_m;
+        let (p, packed) = (&mut state.particles, &mut state.packed);
+        let max2 = if from_rows {
+            state.particles_behind = true;
+            integrate::kick_drift_rows(p, params.dt_s, body, reference, packed, pending)
+        } else {
+            integrate::kick_drift(p, params.dt_s, body, reference, packed, pending)
+        };
+        state.rows_current = true;
         // The sums now hold only the body force: until the pass below has
         // run, the state's forces are not its forces.
         state.forces_ready = false;
         if !max2.is_finite() {
+            state.catch_up();
             let bad = state
                 .particles
                 .position_m
@@ -404,7 +455,7 @@ pub fn advance(
         state.step_count += 1;
         pending = left > 0;
         if !pending {
-            integrate::kick(&mut state.particles, params.dt_s);
+            state.closing_kick(params.dt_s);
         }
     }
     sink.step_done(state);

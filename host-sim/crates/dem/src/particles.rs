@@ -43,6 +43,18 @@ impl Sphere {
         Sphere([position_m.x, position_m.y, position_m.z, radius_m])
     }
 
+    /// Its centre (m).
+    #[inline(always)]
+    pub(crate) fn position_m(&self) -> Vector3<f64> {
+        Vector3::new(self.0[0], self.0[1], self.0[2])
+    }
+
+    /// Its radius (m).
+    #[inline(always)]
+    pub(crate) fn radius_m(&self) -> f64 {
+        self.0[3]
+    }
+
     /// Whether this sphere and `other` overlap (the one test of the pair
     /// pass and of the contact count).
     #[inline(always)]
@@ -83,6 +95,26 @@ impl Sphere {
 #[repr(C, align(64))]
 pub(crate) struct Motion(pub(crate) [[f64; 4]; 2]);
 
+impl Motion {
+    /// Velocity (m/s).
+    #[inline(always)]
+    pub(crate) fn velocity_m_s(&self) -> Vector3<f64> {
+        Vector3::new(self.0[0][0], self.0[0][1], self.0[0][2])
+    }
+
+    /// Mass (kg).
+    #[inline(always)]
+    pub(crate) fn mass_kg(&self) -> f64 {
+        self.0[0][3]
+    }
+
+    /// Angular velocity (rad/s).
+    #[inline(always)]
+    pub(crate) fn spin_rad_s(&self) -> Vector3<f64> {
+        Vector3::new(self.0[1][0], self.0[1][1], self.0[1][2])
+    }
+}
+
 /// The particles' state packed for the pair pass: one aligned load per row
 /// instead of five arrays, and the overlap test's data dense.
 #[derive(Clone, Debug, Default)]
@@ -98,6 +130,26 @@ impl Packed {
     pub(crate) fn resize(&mut self, n: usize) {
         self.sphere.resize(n, Sphere::default());
         self.motion.resize(n, Motion::default());
+    }
+
+    /// Writes the rows' positions, velocities and spins back into `p`
+    /// (which must have as many particles).
+    pub(crate) fn unpack_into(&self, p: &mut Particles) {
+        (
+            p.position_m.par_chunks_mut(PACK_CHUNK),
+            p.velocity_m_s.par_chunks_mut(PACK_CHUNK),
+            p.angular_velocity_rad_s.par_chunks_mut(PACK_CHUNK),
+            self.sphere.par_chunks(PACK_CHUNK),
+            self.motion.par_chunks(PACK_CHUNK),
+        )
+            .into_par_iter()
+            .for_each(|(x, v, w, s, m)| {
+                for k in 0..x.len() {
+                    x[k] = s[k].position_m();
+                    v[k] = m[k].velocity_m_s();
+                    w[k] = m[k].spin_rad_s();
+                }
+            });
     }
 }
 
