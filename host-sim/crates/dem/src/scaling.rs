@@ -23,10 +23,10 @@ pub const SETTLE_STEPS: u64 = 21_000;
 /// Untimed steps after tiling, while the tiles' contact history builds.
 pub const WARM_UP_STEPS: u64 = 200;
 
-/// Rounds the timed steps are split into; the median round's rate is
-/// reported, so that a moment of load from elsewhere on a shared machine
-/// does not decide a size's figure (the 20,000-grain size runs only a
-/// second or two).
+/// Rounds the timed steps are split into, the sizes and worker counts
+/// taking turns within each; the median round's rate is reported, so that
+/// a moment of load from elsewhere on a shared machine does not decide a
+/// size's figure (the 20,000-grain size runs only a second or two).
 pub const ROUNDS: u64 = 5;
 
 /// What to measure.
@@ -55,8 +55,10 @@ pub struct ScalingRow {
     /// Listed pairs (touching or within the skin) per particle after the
     /// timed steps: what the pair pass sweeps.
     pub listed_pairs_per_particle: f64,
-    /// The process' peak resident memory after this size, per particle
-    /// (bytes; Linux's VmHWM), when the system says.
+    /// What setting this size up and warming it up added to the process'
+    /// peak resident memory (Linux's VmHWM), per particle (bytes), when
+    /// the system says: the bed's own footprint, the settled 20,000-grain
+    /// bed and the program not counted.
     pub peak_bytes_per_particle: Option<f64>,
     /// Time of the closing half kick alone, per particle (ns): a pass
     /// with no neighbours that only streams the particles' arrays, so its
@@ -122,8 +124,10 @@ fn peak_rss_bytes() -> Option<f64> {
     Some(kb * 1024.0)
 }
 
-/// Settles the bed once, then times each size (increasing) at each worker
-/// count.
+/// Settles the bed once, sets up every size (increasing), then times the
+/// sizes and worker counts in turn, round by round ([`ROUNDS`]), so that
+/// a change in the machine's load over the run falls on all of them alike
+/// instead of on whichever size ran then.
 pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<ScalingRow>> {
     ensure!(!opts.tiles.is_empty(), "no bed size given");
     ensure!(
@@ -138,38 +142,56 @@ pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<Scaling
     let mut tiles = opts.tiles.clone();
     tiles.sort_unstable();
     tiles.dedup();
-    let most = opts.workers.iter().copied().max().unwrap_or(1);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(most)
-        .build()
-        .context("starting the worker threads")?;
+    let pools = (opts.workers.iter())
+        .map(|&w| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(w).build();
+            Ok((w, pool.context("starting the worker threads")?))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let most = &pools
+        .iter()
+        .max_by_key(|(w, _)| *w)
+        .context("no worker count")?
+        .1;
     progress("settling the 20,000-grain periodic bed");
-    let bed = pool.install(|| settled_bed(SETTLE_STEPS))?;
-    let mut rows = Vec::new();
+    let bed = most.install(|| settled_bed(SETTLE_STEPS))?;
+    // Each size once, warmed up; its peak memory is what setting it up
+    // added to the process's peak.
+    let mut sizes = Vec::new();
     for &k in &tiles {
+        let before = peak_rss_bytes();
         let params = params(k)?;
-        for &w in &opts.workers {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(w)
-                .build()
-                .context("starting the worker threads")?;
-            let mut state = tiled(&bed, k)?;
-            let n = state.particles.len();
-            progress(&format!("{n} particles, {w} worker(s)"));
-            let (rate, contacts) = pool.install(|| -> Result<(f64, f64)> {
-                dem::advance(&params, &mut state, &mut (), WARM_UP_STEPS)?;
-                let mut rates = Vec::new();
-                for r in 0..ROUNDS {
-                    let steps = opts.steps * (r + 1) / ROUNDS - opts.steps * r / ROUNDS;
-                    let t0 = Instant::now();
-                    dem::advance(&params, &mut state, &mut (), steps)?;
-                    if steps > 0 {
-                        rates.push(n as f64 * steps as f64 / t0.elapsed().as_secs_f64());
-                    }
-                }
-                rates.sort_unstable_by(f64::total_cmp);
-                Ok((rates[rates.len() / 2], state.mean_contacts()))
-            })?;
+        let mut state = tiled(&bed, k)?;
+        progress(&format!("{} particles: warming up", state.particles.len()));
+        most.install(|| dem::advance(&params, &mut state, &mut (), WARM_UP_STEPS))?;
+        let n = state.particles.len() as f64;
+        let peak = peak_rss_bytes()
+            .zip(before)
+            .map(|(after, before)| (after - before) / n);
+        sizes.push((params, state, peak));
+    }
+    let mut rates = vec![Vec::new(); sizes.len() * pools.len()];
+    for r in 0..ROUNDS {
+        progress(&format!("round {} of {ROUNDS}", r + 1));
+        let steps = opts.steps * (r + 1) / ROUNDS - opts.steps * r / ROUNDS;
+        if steps == 0 {
+            continue;
+        }
+        for (s, (params, state, _)) in sizes.iter_mut().enumerate() {
+            for (q, (_, pool)) in pools.iter().enumerate() {
+                let n = state.particles.len() as f64;
+                let t0 = Instant::now();
+                pool.install(|| dem::advance(params, state, &mut (), steps))?;
+                rates[s * pools.len() + q].push(n * steps as f64 / t0.elapsed().as_secs_f64());
+            }
+        }
+    }
+    let mut rows = Vec::new();
+    for (s, (params, state, peak)) in sizes.iter().enumerate() {
+        let n = state.particles.len();
+        for (q, (w, pool)) in pools.iter().enumerate() {
+            let mut r = rates[s * pools.len() + q].clone();
+            r.sort_unstable_by(f64::total_cmp);
             let kick_s = pool.install(|| {
                 let mut p = state.particles.clone();
                 let t0 = Instant::now();
@@ -180,11 +202,11 @@ pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<Scaling
             });
             rows.push(ScalingRow {
                 particles: n,
-                workers: w,
-                particle_steps_per_s: rate,
-                mean_contacts: contacts,
+                workers: *w,
+                particle_steps_per_s: r[r.len() / 2],
+                mean_contacts: state.mean_contacts(),
                 listed_pairs_per_particle: state.neighbours().pair_count() as f64 / n as f64,
-                peak_bytes_per_particle: peak_rss_bytes().map(|b| b / n as f64),
+                peak_bytes_per_particle: *peak,
                 kick_ns_per_particle: kick_s * 1e9 / (n as f64 * opts.steps as f64),
             });
         }
