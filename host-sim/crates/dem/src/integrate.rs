@@ -53,7 +53,6 @@ type KickDriftArgs<'a> = (
 fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
     (p, dt_s, body, reference_m, packed): KickDriftArgs,
 ) -> f64 {
-    let h = 0.5 * dt_s;
     packed.resize(p.len());
     let (r, m) = (&p.radius_m, &p.mass_kg);
     let max2 = (
@@ -77,19 +76,17 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
             // drop it and a bed gone non-finite would step on unseen).
             let mut max2 = 0u64;
             for k in 0..x.len() {
-                let dv = f[k] * (h * im[k]);
-                let dw = t[k] * (h * ii[k]);
                 let i = c * CHUNK + k;
-                f[k] = body * m[i];
-                t[k] = Vector3::zeros();
-                if CLOSE {
-                    v[k] += dv;
-                    w[k] += dw;
-                }
-                v[k] += dv;
-                w[k] += dw;
-                x[k] += v[k] * dt_s;
-                max2 = max2.max((x[k] - x0[k]).norm_squared().to_bits());
+                let one = One {
+                    f: &mut f[k],
+                    t: &mut t[k],
+                    inv_mass_per_kg: im[k],
+                    inv_inertia_per_kg_m2: ii[k],
+                    mass_kg: m[i],
+                };
+                let d2 =
+                    one.kick_drift::<CLOSE>((&mut x[k], &mut v[k], &mut w[k]), &x0[k], body, dt_s);
+                max2 = max2.max(d2.to_bits());
                 let rows = pack_one(&x[k], &v[k], &w[k], r[i], m[i]);
                 store_rows::<STREAM>(&mut sphere[k], &mut motion[k], rows);
             }
@@ -127,7 +124,6 @@ pub(crate) fn kick_drift_rows(
 fn kick_drift_rows_in<const CLOSE: bool>(
     (p, dt_s, body, reference_m, packed): KickDriftArgs,
 ) -> f64 {
-    let h = 0.5 * dt_s;
     let max2 = (
         p.force_n.par_chunks_mut(CHUNK),
         p.torque_n_m.par_chunks_mut(CHUNK),
@@ -145,24 +141,62 @@ fn kick_drift_rows_in<const CLOSE: bool>(
                 let (mut x, r) = (sphere[k].position_m(), sphere[k].radius_m());
                 let m = motion[k].mass_kg();
                 let (mut v, mut w) = (motion[k].velocity_m_s(), motion[k].spin_rad_s());
-                let dv = f[k] * (h * im[k]);
-                let dw = t[k] * (h * ii[k]);
-                f[k] = body * m;
-                t[k] = Vector3::zeros();
-                if CLOSE {
-                    v += dv;
-                    w += dw;
-                }
-                v += dv;
-                w += dw;
-                x += v * dt_s;
-                max2 = max2.max((x - x0[k]).norm_squared().to_bits());
+                let one = One {
+                    f: &mut f[k],
+                    t: &mut t[k],
+                    inv_mass_per_kg: im[k],
+                    inv_inertia_per_kg_m2: ii[k],
+                    mass_kg: m,
+                };
+                let d2 = one.kick_drift::<CLOSE>((&mut x, &mut v, &mut w), &x0[k], body, dt_s);
+                max2 = max2.max(d2.to_bits());
                 (sphere[k], motion[k]) = pack_one(&x, &v, &w, r, m);
             }
             max2
         })
         .reduce(|| 0, u64::max);
     f64::from_bits(max2)
+}
+
+/// One particle's force, torque and inertia, for its share of a first
+/// sweep.
+struct One<'a> {
+    f: &'a mut Vector3<f64>,
+    t: &'a mut Vector3<f64>,
+    inv_mass_per_kg: f64,
+    inv_inertia_per_kg_m2: f64,
+    mass_kg: f64,
+}
+
+impl One<'_> {
+    /// The particle's half kick (with `CLOSE`, the previous step's closing
+    /// one first) and drift over `dt_s` of its position, velocity and spin
+    /// `(x, v, w)`; its force and torque are then set to the body force
+    /// `body` × m and zero. Returns its squared displacement from `x0`
+    /// (m²). The one copy of the first sweep's arithmetic, wherever the
+    /// motion is kept.
+    #[inline(always)]
+    fn kick_drift<const CLOSE: bool>(
+        self,
+        (x, v, w): (&mut Vector3<f64>, &mut Vector3<f64>, &mut Vector3<f64>),
+        x0: &Vector3<f64>,
+        body: Vector3<f64>,
+        dt_s: f64,
+    ) -> f64 {
+        let h = 0.5 * dt_s;
+        let dv = *self.f * (h * self.inv_mass_per_kg);
+        let dw = *self.t * (h * self.inv_inertia_per_kg_m2);
+        *self.f = body * self.mass_kg;
+        *self.t = Vector3::zeros();
+        if CLOSE {
+            *v += dv;
+            *w += dw;
+        }
+        *v += dv;
+        *w += dw;
+        *x += *v * dt_s;
+        (*x - x0).norm_squared()
+    }
 }
 
 /// Stores a particle's packed rows; with `STREAM`, past the caches

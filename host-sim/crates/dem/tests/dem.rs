@@ -527,19 +527,6 @@ fn advance_is_the_same_bits_as_as_many_steps() {
     // The fused closing kick must leave every quantity as step-by-step
     // stepping does, including what the sink sees mid-step (the drag reads
     // the velocities), over list rebuilds and wall contacts.
-    let snapshot = |s: &State| {
-        let p = &s.particles;
-        (
-            p.position_m.clone(),
-            p.velocity_m_s.clone(),
-            p.angular_velocity_rad_s.clone(),
-            p.force_n.clone(),
-            p.torque_n_m.clone(),
-            s.wall_forces_n().to_vec(),
-            s.time_s.to_bits(),
-            s.step_count,
-        )
-    };
     let (params, mut stepped) = small_bed(6, 0.0);
     let mut advanced = stepped.clone();
     let mut one = Drag { ends: 0 };
@@ -553,7 +540,10 @@ fn advance_is_the_same_bits_as_as_many_steps() {
     }
     assert_eq!(one.ends, 1_500);
     assert_eq!(fused.ends, 4, "step_done once per non-empty advance");
-    assert!(snapshot(&stepped) == snapshot(&advanced), "advance differs");
+    assert!(
+        common::snapshot(&stepped) == common::snapshot(&advanced),
+        "advance differs"
+    );
 }
 
 #[test]
