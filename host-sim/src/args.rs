@@ -702,14 +702,16 @@ pub enum BenchCommand {
     },
     /// The cost per particle-step as the bed grows: the benchmark's grains
     /// settled once in a box periodic across, tiled k × k (20,000 grains
-    /// per tile), a timed packed phase at each size and worker count;
-    /// prints particle-steps/s and peak memory per particle.
+    /// per tile), every size set up first, then timed packed phases in
+    /// which the sizes and worker counts take turns; prints
+    /// particle-steps/s and each bed's memory per particle.
     Scaling {
         /// Tiles per side, comma-separated (1: 20,000 grains, 3: 180,000,
         /// 7: 980,000).
         #[arg(long, value_delimiter = ',', default_values_t = [1usize, 3, 7])]
         tiles: Vec<usize>,
-        /// Timed steps at each size, in five rounds (the median round's rate is reported).
+        /// Timed steps at each size, in five rounds (the median round's
+        /// rate is reported).
         #[arg(long, default_value_t = 500)]
         steps: u64,
         /// Worker thread counts, comma-separated.
