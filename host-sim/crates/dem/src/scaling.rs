@@ -23,6 +23,11 @@ pub const SETTLE_STEPS: u64 = 21_000;
 /// Untimed steps after tiling, while the tiles' contact history builds.
 pub const WARM_UP_STEPS: u64 = 200;
 
+/// Untimed steps before each timed round, so that a size starts its round
+/// with its own data in the caches and its workers awake, as it would
+/// timed alone, not with what the size before it left there.
+pub const REWARM_STEPS: u64 = 20;
+
 /// Rounds the timed steps are split into, the sizes and worker counts
 /// taking turns within each; the median round's rate is reported, so that
 /// a moment of load from elsewhere on a shared machine does not decide a
@@ -180,6 +185,7 @@ pub fn run(opts: &ScalingOptions, progress: impl Fn(&str)) -> Result<Vec<Scaling
         for (s, (params, state, _)) in sizes.iter_mut().enumerate() {
             for (q, (_, pool)) in pools.iter().enumerate() {
                 let n = state.particles.len() as f64;
+                pool.install(|| dem::advance(params, state, &mut (), REWARM_STEPS))?;
                 let t0 = Instant::now();
                 pool.install(|| dem::advance(params, state, &mut (), steps))?;
                 rates[s * pools.len() + q].push(n * steps as f64 / t0.elapsed().as_secs_f64());
