@@ -18,26 +18,34 @@ const CHUNK: usize = 1024;
 /// Once read, each force and torque is set to the body force
 /// `body_accel_m_s2` × m and zero, where the pair pass would start its
 /// sums (on a bed beyond the caches, a sweep of its own that came from
-/// memory). Returns the largest squared displacement from `reference_m`
-/// (m²), for the Verlet-list check: NaN if any position is NaN.
+/// memory). With `from_rows`, the motion is read from `packed` (which must
+/// hold the current positions, velocities and spins) and written there
+/// alone, `p`'s own positions, velocities and spins left behind for
+/// [`Packed::unpack_into`]; else it is read from `p` and written to both.
+/// Returns the largest squared displacement from `reference_m` (m²), for
+/// the Verlet-list check: NaN if any position is NaN.
 pub(crate) fn kick_drift(
     p: &mut Particles,
     dt_s: f64,
     body_accel_m_s2: Vector3<f64>,
     reference_m: &[Vector3<f64>],
     packed: &mut Packed,
-    close_previous: bool,
+    (close_previous, from_rows): (bool, bool),
 ) -> f64 {
+    // Rows that are read first are not streamed past the caches.
+    let stream = !from_rows && far(p.len());
     let args = (p, dt_s, body_accel_m_s2, reference_m, packed);
-    match (close_previous, far(args.0.len())) {
-        (true, true) => kick_drift_in::<true, true>(args),
-        (true, false) => kick_drift_in::<true, false>(args),
-        (false, true) => kick_drift_in::<false, true>(args),
-        (false, false) => kick_drift_in::<false, false>(args),
+    match (close_previous, stream, from_rows) {
+        (true, true, _) => kick_drift_in::<true, true, false>(args),
+        (false, true, _) => kick_drift_in::<false, true, false>(args),
+        (true, false, true) => kick_drift_in::<true, false, true>(args),
+        (false, false, true) => kick_drift_in::<false, false, true>(args),
+        (true, false, false) => kick_drift_in::<true, false, false>(args),
+        (false, false, false) => kick_drift_in::<false, false, false>(args),
     }
 }
 
-/// The arguments of [`kick_drift`] but the flag.
+/// The arguments of [`kick_drift`] but the flags.
 type KickDriftArgs<'a> = (
     &'a mut Particles,
     f64,
@@ -47,12 +55,13 @@ type KickDriftArgs<'a> = (
 );
 
 /// [`kick_drift`], compiled with and without the closing half kick
-/// (`CLOSE`) and with and without streaming stores of the packed rows
-/// (`STREAM`, on beds beyond the caches: see [`store_rows`]) so that
-/// neither pays a branch per particle.
-fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
+/// (`CLOSE`), streaming stores of the packed rows (`STREAM`, on beds
+/// beyond the caches: see [`store_rows`]) and the motion taken from the
+/// rows (`FROM_ROWS`), so that none pays a branch per particle.
+fn kick_drift_in<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
     (p, dt_s, body, reference_m, packed): KickDriftArgs,
 ) -> f64 {
+    let h = 0.5 * dt_s;
     packed.resize(p.len());
     let (r, m) = (&p.radius_m, &p.mass_kg);
     let max2 = (
@@ -77,17 +86,33 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
             let mut max2 = 0u64;
             for k in 0..x.len() {
                 let i = c * CHUNK + k;
-                let one = One {
-                    f: &mut f[k],
-                    t: &mut t[k],
-                    inv_mass_per_kg: im[k],
-                    inv_inertia_per_kg_m2: ii[k],
-                    mass_kg: m[i],
+                let (mut xk, mut vk, mut wk, rk, mk) = if FROM_ROWS {
+                    let (s, q) = (&sphere[k], &motion[k]);
+                    (
+                        s.position_m(),
+                        q.velocity_m_s(),
+                        q.spin_rad_s(),
+                        s.radius_m(),
+                        q.mass_kg(),
+                    )
+                } else {
+                    (x[k], v[k], w[k], r[i], m[i])
                 };
-                let d2 =
-                    one.kick_drift::<CLOSE>((&mut x[k], &mut v[k], &mut w[k]), &x0[k], body, dt_s);
-                max2 = max2.max(d2.to_bits());
-                let rows = pack_one(&x[k], &v[k], &w[k], r[i], m[i]);
+                let (dv, dw) = half_kick(&f[k], &t[k], im[k], ii[k], h);
+                f[k] = body * mk;
+                t[k] = Vector3::zeros();
+                if CLOSE {
+                    vk += dv;
+                    wk += dw;
+                }
+                vk += dv;
+                wk += dw;
+                xk += vk * dt_s;
+                max2 = max2.max((xk - x0[k]).norm_squared().to_bits());
+                if !FROM_ROWS {
+                    (x[k], v[k], w[k]) = (xk, vk, wk);
+                }
+                let rows = pack_one(&xk, &vk, &wk, rk, mk);
                 store_rows::<STREAM>(&mut sphere[k], &mut motion[k], rows);
             }
             if STREAM {
@@ -99,104 +124,19 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool>(
     f64::from_bits(max2)
 }
 
-/// [`kick_drift`] with the motion read from and written to `packed`
-/// alone (which must hold the current positions, velocities and spins):
-/// `p`'s own positions, velocities and spins are left behind, for
-/// [`Packed::unpack_into`] to bring up to date. The same operations in
-/// the same order, so the same bits.
-pub(crate) fn kick_drift_rows(
-    p: &mut Particles,
-    dt_s: f64,
-    body_accel_m_s2: Vector3<f64>,
-    reference_m: &[Vector3<f64>],
-    packed: &mut Packed,
-    close_previous: bool,
-) -> f64 {
-    let args = (p, dt_s, body_accel_m_s2, reference_m, packed);
-    if close_previous {
-        kick_drift_rows_in::<true>(args)
-    } else {
-        kick_drift_rows_in::<false>(args)
-    }
-}
-
-/// [`kick_drift_rows`], compiled with and without the closing half kick.
-fn kick_drift_rows_in<const CLOSE: bool>(
-    (p, dt_s, body, reference_m, packed): KickDriftArgs,
-) -> f64 {
-    let max2 = (
-        p.force_n.par_chunks_mut(CHUNK),
-        p.torque_n_m.par_chunks_mut(CHUNK),
-        p.inv_mass_per_kg.par_chunks(CHUNK),
-        p.inv_inertia_per_kg_m2.par_chunks(CHUNK),
-        reference_m.par_chunks(CHUNK),
-        packed.sphere.par_chunks_mut(CHUNK),
-        packed.motion.par_chunks_mut(CHUNK),
-    )
-        .into_par_iter()
-        .map(|(f, t, im, ii, x0, sphere, motion)| {
-            // As in `kick_drift_in`: NaN above every displacement.
-            let mut max2 = 0u64;
-            for k in 0..f.len() {
-                let (mut x, r) = (sphere[k].position_m(), sphere[k].radius_m());
-                let m = motion[k].mass_kg();
-                let (mut v, mut w) = (motion[k].velocity_m_s(), motion[k].spin_rad_s());
-                let one = One {
-                    f: &mut f[k],
-                    t: &mut t[k],
-                    inv_mass_per_kg: im[k],
-                    inv_inertia_per_kg_m2: ii[k],
-                    mass_kg: m,
-                };
-                let d2 = one.kick_drift::<CLOSE>((&mut x, &mut v, &mut w), &x0[k], body, dt_s);
-                max2 = max2.max(d2.to_bits());
-                (sphere[k], motion[k]) = pack_one(&x, &v, &w, r, m);
-            }
-            max2
-        })
-        .reduce(|| 0, u64::max);
-    f64::from_bits(max2)
-}
-
-/// One particle's force, torque and inertia, for its share of a first
-/// sweep.
-struct One<'a> {
-    f: &'a mut Vector3<f64>,
-    t: &'a mut Vector3<f64>,
+/// The changes of velocity (m/s) and spin (rad/s) a half kick of `h` (s)
+/// gives a particle under force `f` (N) and torque `t` (N·m): the one
+/// formula of the first sweep and of [`kick`], so that fusing the closing
+/// kick into the sweep keeps the bits.
+#[inline(always)]
+fn half_kick(
+    f: &Vector3<f64>,
+    t: &Vector3<f64>,
     inv_mass_per_kg: f64,
     inv_inertia_per_kg_m2: f64,
-    mass_kg: f64,
-}
-
-impl One<'_> {
-    /// The particle's half kick (with `CLOSE`, the previous step's closing
-    /// one first) and drift over `dt_s` of its position, velocity and spin
-    /// `(x, v, w)`; its force and torque are then set to the body force
-    /// `body` × m and zero. Returns its squared displacement from `x0`
-    /// (m²). The one copy of the first sweep's arithmetic, wherever the
-    /// motion is kept.
-    #[inline(always)]
-    fn kick_drift<const CLOSE: bool>(
-        self,
-        (x, v, w): (&mut Vector3<f64>, &mut Vector3<f64>, &mut Vector3<f64>),
-        x0: &Vector3<f64>,
-        body: Vector3<f64>,
-        dt_s: f64,
-    ) -> f64 {
-        let h = 0.5 * dt_s;
-        let dv = *self.f * (h * self.inv_mass_per_kg);
-        let dw = *self.t * (h * self.inv_inertia_per_kg_m2);
-        *self.f = body * self.mass_kg;
-        *self.t = Vector3::zeros();
-        if CLOSE {
-            *v += dv;
-            *w += dw;
-        }
-        *v += dv;
-        *w += dw;
-        *x += *v * dt_s;
-        (*x - x0).norm_squared()
-    }
+    h: f64,
+) -> (Vector3<f64>, Vector3<f64>) {
+    (f * (h * inv_mass_per_kg), t * (h * inv_inertia_per_kg_m2))
 }
 
 /// Stores a particle's packed rows; with `STREAM`, past the caches
@@ -255,8 +195,9 @@ pub fn kick(p: &mut Particles, dt_s: f64) {
         .into_par_iter()
         .for_each(|(v, w, f, t, im, ii)| {
             for k in 0..v.len() {
-                v[k] += f[k] * (h * im[k]);
-                w[k] += t[k] * (h * ii[k]);
+                let (dv, dw) = half_kick(&f[k], &t[k], im[k], ii[k], h);
+                v[k] += dv;
+                w[k] += dw;
             }
         });
 }
@@ -293,13 +234,13 @@ mod tests {
             let args = |p, packed| (p, 1.5e-5, g, &reference[..], packed);
             let (ma, mb) = if close {
                 (
-                    kick_drift_in::<true, false>(args(&mut a, &mut pa)),
-                    kick_drift_in::<true, true>(args(&mut b, &mut pb)),
+                    kick_drift_in::<true, false, false>(args(&mut a, &mut pa)),
+                    kick_drift_in::<true, true, false>(args(&mut b, &mut pb)),
                 )
             } else {
                 (
-                    kick_drift_in::<false, false>(args(&mut a, &mut pa)),
-                    kick_drift_in::<false, true>(args(&mut b, &mut pb)),
+                    kick_drift_in::<false, false, false>(args(&mut a, &mut pa)),
+                    kick_drift_in::<false, true, false>(args(&mut b, &mut pb)),
                 )
             };
             assert!(ma > 0.0);

@@ -424,12 +424,9 @@ pub fn advance(
         let body = params.gravity_m_s2 * params.buoyancy_factor();
         let reference = &state.neighbours.reference_m;
         let (p, packed) = (&mut state.particles, &mut state.packed);
-        let max2 = if from_rows {
-            state.particles_behind = true;
-            integrate::kick_drift_rows(p, params.dt_s, body, reference, packed, pending)
-        } else {
-            integrate::kick_drift(p, params.dt_s, body, reference, packed, pending)
-        };
+        let flags = (pending, from_rows);
+        let max2 = integrate::kick_drift(p, params.dt_s, body, reference, packed, flags);
+        state.particles_behind = from_rows;
         state.rows_current = true;
         // The sums now hold only the body force: until the pass below has
         // run, the state's forces are not its forces.
