@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::forces::far;
+use super::forces::{far, simd, Simd};
 use super::particles::{pack_one, Motion, Packed, Particles, Sphere};
 
 /// Particles per parallel task.
@@ -61,9 +61,9 @@ type KickDriftArgs<'a> = (
 fn kick_drift_in<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
     (p, dt_s, body, reference_m, packed): KickDriftArgs,
 ) -> f64 {
-    let h = 0.5 * dt_s;
+    let simd = simd();
     packed.resize(p.len());
-    let (r, m) = (&p.radius_m, &p.mass_kg);
+    let (r, m) = (&p.radius_m[..], &p.mass_kg[..]);
     let max2 = (
         p.position_m.par_chunks_mut(CHUNK),
         p.velocity_m_s.par_chunks_mut(CHUNK),
@@ -79,49 +79,214 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
         .into_par_iter()
         .enumerate()
         .map(|(c, (x, v, w, f, t, im, ii, x0, sphere, motion))| {
-            // The largest squared displacement as bits: for the values
-            // here (≥ 0, or NaN) the integers order as the numbers do, NaN
-            // above all, so one NaN makes the result NaN (`f64::max` would
-            // drop it and a bed gone non-finite would step on unseen).
-            let mut max2 = 0u64;
-            for k in 0..x.len() {
-                let i = c * CHUNK + k;
-                let (mut xk, mut vk, mut wk, rk, mk) = if FROM_ROWS {
-                    let (s, q) = (&sphere[k], &motion[k]);
-                    (
-                        s.position_m(),
-                        q.velocity_m_s(),
-                        q.spin_rad_s(),
-                        s.radius_m(),
-                        q.mass_kg(),
-                    )
-                } else {
-                    (x[k], v[k], w[k], r[i], m[i])
-                };
-                let (dv, dw) = half_kick(&f[k], &t[k], im[k], ii[k], h);
-                f[k] = body * mk;
-                t[k] = Vector3::zeros();
-                if CLOSE {
-                    vk += dv;
-                    wk += dw;
-                }
-                vk += dv;
-                wk += dw;
-                xk += vk * dt_s;
-                max2 = max2.max((xk - x0[k]).norm_squared().to_bits());
-                if !FROM_ROWS {
-                    (x[k], v[k], w[k]) = (xk, vk, wk);
-                }
-                let rows = pack_one(&xk, &vk, &wk, rk, mk);
-                store_rows::<STREAM>(&mut sphere[k], &mut motion[k], rows);
+            let chunk = Chunk {
+                first: c * CHUNK,
+                x,
+                v,
+                w,
+                f,
+                t,
+                im,
+                ii,
+                x0,
+                sphere,
+                motion,
+            };
+            let args = (chunk, r, m, dt_s, body);
+            #[cfg(target_arch = "x86_64")]
+            if simd == Simd::Avx2 {
+                // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
+                return unsafe { sweep_avx2::<CLOSE, STREAM, FROM_ROWS>(args) };
             }
-            if STREAM {
-                fence_streams();
-            }
-            max2
+            sweep::<CLOSE, STREAM, FROM_ROWS>(args)
         })
         .reduce(|| 0, u64::max);
     f64::from_bits(max2)
+}
+
+/// One task's share of the first sweep: particles `first..` of the
+/// slices, each cut to the task's chunk.
+struct Chunk<'a> {
+    first: usize,
+    x: &'a mut [Vector3<f64>],
+    v: &'a mut [Vector3<f64>],
+    w: &'a mut [Vector3<f64>],
+    f: &'a mut [Vector3<f64>],
+    t: &'a mut [Vector3<f64>],
+    im: &'a [f64],
+    ii: &'a [f64],
+    x0: &'a [Vector3<f64>],
+    sphere: &'a mut [Sphere],
+    motion: &'a mut [Motion],
+}
+
+/// The arguments of [`sweep`]: a chunk, every particle's radius and mass,
+/// the step (s) and the body acceleration (m/s²).
+type SweepArgs<'a, 'b> = (Chunk<'a>, &'b [f64], &'b [f64], f64, Vector3<f64>);
+
+/// [`kick_drift_in`] over one chunk, returning its largest squared
+/// displacement as bits.
+#[inline(always)]
+fn sweep<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
+    (c, r, m, dt_s, body): SweepArgs,
+) -> u64 {
+    let h = 0.5 * dt_s;
+    let Chunk {
+        first,
+        x,
+        v,
+        w,
+        f,
+        t,
+        im,
+        ii,
+        x0,
+        sphere,
+        motion,
+    } = c;
+    // The largest squared displacement as bits: for the values here (≥ 0,
+    // or NaN) the integers order as the numbers do, NaN above all, so one
+    // NaN makes the result NaN (`f64::max` would drop it and a bed gone
+    // non-finite would step on unseen).
+    let mut max2 = 0u64;
+    for k in 0..x.len() {
+        let i = first + k;
+        let (mut xk, mut vk, mut wk, rk, mk) = if FROM_ROWS {
+            let (s, q) = (&sphere[k], &motion[k]);
+            (
+                s.position_m(),
+                q.velocity_m_s(),
+                q.spin_rad_s(),
+                s.radius_m(),
+                q.mass_kg(),
+            )
+        } else {
+            (x[k], v[k], w[k], r[i], m[i])
+        };
+        let (dv, dw) = half_kick(&f[k], &t[k], im[k], ii[k], h);
+        f[k] = body * mk;
+        t[k] = Vector3::zeros();
+        if CLOSE {
+            vk += dv;
+            wk += dw;
+        }
+        vk += dv;
+        wk += dw;
+        xk += vk * dt_s;
+        max2 = max2.max((xk - x0[k]).norm_squared().to_bits());
+        if !FROM_ROWS {
+            (x[k], v[k], w[k]) = (xk, vk, wk);
+        }
+        let rows = pack_one(&xk, &vk, &wk, rk, mk);
+        store_rows::<STREAM>(&mut sphere[k], &mut motion[k], rows);
+    }
+    if STREAM {
+        fence_streams();
+    }
+    max2
+}
+
+/// [`sweep`] for AVX2: with the motion in the rows, each row is one
+/// 256-bit register and a particle's kick and drift a few vector
+/// operations (the compiler leaves the three-component form scalar); the
+/// same operations lane by lane, so the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn sweep_avx2<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
+    args: SweepArgs,
+) -> u64 {
+    use std::arch::x86_64::*;
+    if STREAM || !FROM_ROWS {
+        return sweep::<CLOSE, STREAM, FROM_ROWS>(args);
+    }
+    let (c, _, _, dt_s, body) = args;
+    let h = 0.5 * dt_s;
+    // [x, y, z, 0] from a three-component vector, and back.
+    let load3 = |v: &Vector3<f64>| {
+        let p = v.as_ptr();
+        // SAFETY: a `Vector3<f64>` is three contiguous f64.
+        unsafe {
+            _mm256_insertf128_pd::<1>(
+                _mm256_castpd128_pd256(_mm_loadu_pd(p)),
+                _mm_load_sd(p.add(2)),
+            )
+        }
+    };
+    let store3 = |v: &mut Vector3<f64>, q: __m256d| {
+        let p = v.as_mut_ptr();
+        // SAFETY: as for `load3`.
+        unsafe {
+            _mm_storeu_pd(p, _mm256_castpd256_pd128(q));
+            _mm_store_sd(p.add(2), _mm256_extractf128_pd::<1>(q));
+        }
+    };
+    let body = load3(&body);
+    let zero = _mm256_setzero_pd();
+    let dt = _mm256_set1_pd(dt_s);
+    let Chunk {
+        f,
+        t,
+        im,
+        ii,
+        x0,
+        sphere,
+        motion,
+        ..
+    } = c;
+    let mut max2 = 0u64;
+    let n = sphere.len();
+    let (f, t, im, ii, x0, motion) = (
+        &mut f[..n],
+        &mut t[..n],
+        &im[..n],
+        &ii[..n],
+        &x0[..n],
+        &mut motion[..n],
+    );
+    for k in 0..n {
+        let (s, q) = (sphere[k].0.as_mut_ptr(), &mut motion[k].0);
+        // SAFETY: a sphere row is 32-byte aligned, a motion row's halves
+        // too (`Sphere`, `Motion`).
+        let (xr, v, w) = unsafe {
+            (
+                _mm256_load_pd(s),
+                _mm256_load_pd(q[0].as_ptr()),
+                _mm256_load_pd(q[1].as_ptr()),
+            )
+        };
+        // The half kick's changes, with nothing in the fourth lane (the
+        // mass beside v, the padding beside ω).
+        let dv = _mm256_mul_pd(load3(&f[k]), _mm256_set1_pd(h * im[k]));
+        let dw = _mm256_mul_pd(load3(&t[k]), _mm256_set1_pd(h * ii[k]));
+        let (dv, dw) = (
+            _mm256_blend_pd::<0b1000>(dv, zero),
+            _mm256_blend_pd::<0b1000>(dw, zero),
+        );
+        let mass = _mm256_permute4x64_pd::<0b1111_1111>(v);
+        store3(&mut f[k], _mm256_mul_pd(body, mass));
+        store3(&mut t[k], zero);
+        let (mut v, mut w) = (v, w);
+        if CLOSE {
+            v = _mm256_add_pd(v, dv);
+            w = _mm256_add_pd(w, dw);
+        }
+        v = _mm256_add_pd(v, dv);
+        w = _mm256_blend_pd::<0b1000>(_mm256_add_pd(w, dw), zero);
+        // x += v dt, the radius kept.
+        let x = _mm256_blend_pd::<0b1000>(_mm256_add_pd(xr, _mm256_mul_pd(v, dt)), xr);
+        let mut d = [0.0; 4];
+        // SAFETY: `d` holds four f64.
+        unsafe { _mm256_storeu_pd(d.as_mut_ptr(), _mm256_sub_pd(x, load3(&x0[k]))) };
+        let d = Vector3::new(d[0], d[1], d[2]);
+        max2 = max2.max(d.norm_squared().to_bits());
+        // SAFETY: as for the loads.
+        unsafe {
+            _mm256_store_pd(s, x);
+            _mm256_store_pd(q[0].as_mut_ptr(), v);
+            _mm256_store_pd(q[1].as_mut_ptr(), w);
+        }
+    }
+    max2
 }
 
 /// The changes of velocity (m/s) and spin (rad/s) a half kick of `h` (s)
