@@ -870,7 +870,10 @@ struct WallChunk<'a> {
     p: &'a Packed,
     /// The chunk's candidate particles, ascending.
     candidates: &'a [u32],
-    near: &'a [u64],
+    /// Those of wall bit b (wall w has bit min(w, 63)), ascending, at
+    /// `by_wall[by_wall_start[b] - by_wall_start[0]..]` up to the next.
+    by_wall: &'a [u32],
+    by_wall_start: &'a [usize],
     lo: usize,
 }
 
@@ -908,7 +911,7 @@ impl WallChunk<'_> {
             wn,
         } = out;
         let params = self.params;
-        let stride = params.walls.len().max(1);
+        let len = f.len();
         wp.iter_mut().for_each(|w| *w = Vector3::zeros());
         wn.iter_mut().for_each(|w| *w = 0.0);
         let mut sums = (wp, wn);
@@ -921,14 +924,15 @@ impl WallChunk<'_> {
                 g: [ContactGeometry::default(); LANE_COUNT],
                 len: 0,
             };
-            for &i in self.candidates {
+            // The particles that can touch wall w before the next list
+            // build, and those that touched it at the cull (to clear
+            // their history): no others can have its bit in `mask`.
+            let b = w.min(63);
+            let base = self.by_wall_start[0];
+            let mine = self.by_wall_start[b] - base..self.by_wall_start[b + 1] - base;
+            for &i in &self.by_wall[mine] {
                 let i = i as usize;
                 let k = i - self.lo;
-                // Walls that can touch i before the next list build, and
-                // those it touched last step (to clear their history).
-                if (self.near[i] | mask[k]) & bit == 0 {
-                    continue;
-                }
                 match wall_geometry(self.p, i, wall) {
                     Some(g) => {
                         touching[k] |= bit;
@@ -942,7 +946,7 @@ impl WallChunk<'_> {
                     }
                     // Clear a history only where a contact just opened
                     // (keeps the step from streaming every history).
-                    None if mask[k] & bit != 0 => wh[k * stride + w] = History::default(),
+                    None if mask[k] & bit != 0 => wh[w * len + k] = History::default(),
                     None => {}
                 }
             }
@@ -975,18 +979,18 @@ impl WallChunk<'_> {
         wh: &mut [History],
         sums: &mut (&mut [Vector3<f64>], &mut [f64]),
     ) {
-        let stride = self.params.walls.len().max(1);
+        let len = f.len();
         let g = ContactGeometry::<Lanes>::gather(&batch.g);
         let mut h = [Lanes::splat(0.0); HISTORY_LEN];
         for (l, &k) in batch.k.iter().enumerate() {
-            for (h, &v) in h.iter_mut().zip(&wh[k * stride + w]) {
+            for (h, &v) in h.iter_mut().zip(&wh[w * len + k]) {
                 h.0[l] = v;
             }
         }
         let model = &self.params.walls[w].model;
         let cf = model.evaluate(&g, self.params.dt_s, &mut h);
         for (l, &k) in batch.k.iter().enumerate().take(batch.len) {
-            wh[k * stride + w] = h.map(|c| c.0[l]);
+            wh[w * len + k] = h.map(|c| c.0[l]);
             let cf = cf.lane(l);
             f[k] += cf.force_n;
             let r = self.p.sphere[self.lo + k].radius_m();
@@ -1017,8 +1021,9 @@ pub(crate) fn wall_forces(
     let stride = params.walls.len().max(1);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
-    let near = &walls.near;
+    let bits = stride.min(64);
     let (candidates, candidate_start) = (&walls.candidates, &walls.candidate_start);
+    let (by_wall, by_wall_start) = (&walls.by_wall, &walls.by_wall_start);
     (
         force.par_chunks_mut(GATHER_CHUNK),
         torque.par_chunks_mut(GATHER_CHUNK),
@@ -1034,7 +1039,8 @@ pub(crate) fn wall_forces(
                 params,
                 p: packed,
                 candidates: &candidates[candidate_start[c]..candidate_start[c + 1]],
-                near,
+                by_wall: &by_wall[by_wall_start[c * bits]..by_wall_start[(c + 1) * bits]],
+                by_wall_start: &by_wall_start[c * bits..=(c + 1) * bits],
                 lo: c * GATHER_CHUNK,
             };
             let out = WallOut {
@@ -1057,8 +1063,11 @@ const MAX_CULLED_WALLS: usize = 64;
 /// Per-particle state of the wall contacts.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct WallContacts {
-    /// Contact history of particle i on wall w at `i * stride + w`
-    /// (stride = max(walls, 1)).
+    /// Contact history of particle i on wall w: in the wall pass's chunk of
+    /// i (particles `c * GATHER_CHUNK..` up to `len` of them, their
+    /// histories from `c * GATHER_CHUNK * stride`, stride = max(walls, 1)),
+    /// at `w * len + (i - c * GATHER_CHUNK)`, so that a wall's contacts
+    /// in a chunk lie together.
     pub(crate) history: Vec<History>,
     /// Bit w set while particle i touches wall w (walls past the 64th
     /// share bit 63).
@@ -1072,6 +1081,12 @@ pub(crate) struct WallContacts {
     /// `candidates[candidate_start[c]..candidate_start[c + 1]]` lie in
     /// wall-pass chunk c.
     candidate_start: Vec<usize>,
+    /// The candidates of chunk c with wall bit b (min(w, 63) for wall w)
+    /// set in `near` or `open` at the last cull, ascending, at
+    /// `by_wall[by_wall_start[c * bits + b]..by_wall_start[c * bits + b +
+    /// 1]]` (bits = min(walls, 64)): the wall pass visits no others.
+    by_wall: Vec<u32>,
+    by_wall_start: Vec<usize>,
     /// The list build and wall shapes `near` was made for.
     near_for: (u64, Vec<WallShape>),
     /// Chunk c's force on wall w at `c * stride + w` (N), summed in chunk
@@ -1157,6 +1172,19 @@ impl WallContacts {
         let chunks = p.len().div_ceil(GATHER_CHUNK);
         self.candidate_start
             .resize(chunks + 1, self.candidates.len());
+        let bits = walls.len().clamp(1, 64);
+        self.by_wall.clear();
+        self.by_wall_start.clear();
+        for c in 0..chunks {
+            let mine = &self.candidates[self.candidate_start[c]..self.candidate_start[c + 1]];
+            for b in 0..bits {
+                self.by_wall_start.push(self.by_wall.len());
+                let bit = 1u64 << b;
+                let on = |&&i: &&u32| (self.near[i as usize] | self.open[i as usize]) & bit != 0;
+                self.by_wall.extend(mine.iter().filter(on));
+            }
+        }
+        self.by_wall_start.push(self.by_wall.len());
     }
 
     /// Total force on each wall and its normal load (N) from the chunks'
