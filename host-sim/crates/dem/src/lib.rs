@@ -179,16 +179,26 @@ pub struct State {
     forces_ready: bool,
     /// The particles' state packed for the pair pass, written by each
     /// step's first sweep (inside [`advance`], with a sink that adds no
-    /// forces, the only current copy of their motion: `particles_behind`).
+    /// forces, the only current copy of their motion: [`Motion::Rows`]).
     packed: particles::Packed,
-    /// Whether `packed` holds the particles' current motion (positions,
-    /// velocities, spins), so that the next first sweep can read it there.
-    rows_current: bool,
-    /// Whether `particles`' positions, velocities and spins are behind
-    /// `packed` (only inside [`advance`], with a sink that adds no forces).
-    particles_behind: bool,
+    /// Where the particles' current positions, velocities and spins are.
+    motion: Motion,
     /// The periodic axes of the last step's parameters.
     images: Images,
+}
+
+/// Where a [`State`] keeps its particles' current positions, velocities and
+/// spins: the rows are the only copy between the steps of an [`advance`]
+/// whose sink adds no forces; `particles` must be brought up to them
+/// before anything else reads it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Motion {
+    /// In `particles` alone (the packed rows are stale).
+    Particles,
+    /// In both `particles` and the packed rows.
+    Both,
+    /// In the packed rows alone (`particles` is behind).
+    Rows,
 }
 
 impl State {
@@ -205,8 +215,7 @@ impl State {
             wall_normal_load_n: Vec::new(),
             forces_ready: false,
             packed: particles::Packed::default(),
-            rows_current: false,
-            particles_behind: false,
+            motion: Motion::Particles,
             images: Images::default(),
         }
     }
@@ -281,9 +290,9 @@ impl State {
     /// Brings `particles`' positions, velocities and spins up to the
     /// packed rows, if they are behind.
     fn catch_up(&mut self) {
-        if self.particles_behind {
+        if self.motion == Motion::Rows {
             self.packed.unpack_into(&mut self.particles);
-            self.particles_behind = false;
+            self.motion = Motion::Both;
         }
     }
 
@@ -291,7 +300,7 @@ impl State {
     fn closing_kick(&mut self, dt_s: f64) {
         self.catch_up();
         integrate::kick(&mut self.particles, dt_s);
-        self.rows_current = false;
+        self.motion = Motion::Particles;
     }
 
     fn rebuild(&mut self, params: &Params) -> Result<(), DemError> {
@@ -302,7 +311,7 @@ impl State {
         // packed), so the next first sweep starts from `particles`.
         for (a, axis) in params.periodic.iter().enumerate() {
             if let Some(axis) = axis {
-                self.rows_current = false;
+                self.motion = Motion::Particles;
                 for x in &mut self.particles.position_m {
                     x[a] = axis.wrap(x[a]);
                 }
@@ -325,7 +334,7 @@ impl State {
         if !packed_current {
             self.catch_up();
             self.particles.pack_into(&mut self.packed);
-            self.rows_current = true;
+            self.motion = Motion::Both;
         }
         forces::pair_forces(
             params,
@@ -393,8 +402,10 @@ pub fn advance(
         return Ok(());
     }
     params.validate()?;
-    // The caller may have changed the particles since the last call.
-    state.rows_current = false;
+    // The caller may have changed the particles since the last call
+    // (which left them current).
+    state.catch_up();
+    state.motion = Motion::Particles;
     // Whether the first sweep may take the motion from the packed rows
     // alone: nothing outside reads the particles until the end.
     let rows_only = !sink.adds_external_forces();
@@ -417,7 +428,7 @@ pub fn advance(
             state.evaluate_forces(params, sink, false);
             state.forces_ready = true;
         }
-        let from_rows = rows_only && state.rows_current;
+        let from_rows = rows_only && state.motion != Motion::Particles;
         if !from_rows {
             state.catch_up();
         }
@@ -426,8 +437,11 @@ pub fn advance(
         let (p, packed) = (&mut state.particles, &mut state.packed);
         let flags = (pending, from_rows);
         let max2 = integrate::kick_drift(p, params.dt_s, body, reference, packed, flags);
-        state.particles_behind = from_rows;
-        state.rows_current = true;
+        state.motion = if from_rows {
+            Motion::Rows
+        } else {
+            Motion::Both
+        };
         // The sums now hold only the body force: until the pass below has
         // run, the state's forces are not its forces.
         state.forces_ready = false;
