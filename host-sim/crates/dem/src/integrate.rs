@@ -223,25 +223,16 @@ fn sweep_avx2<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
     let body = load3(&body);
     let zero = _mm256_setzero_pd();
     let dt = _mm256_set1_pd(dt_s);
-    let Chunk {
-        f,
-        t,
-        im,
-        ii,
-        x0,
-        sphere,
-        motion,
-        ..
-    } = c;
     let mut max2 = 0u64;
-    let n = sphere.len();
-    let (f, t, im, ii, x0, motion) = (
-        &mut f[..n],
-        &mut t[..n],
-        &im[..n],
-        &ii[..n],
-        &x0[..n],
-        &mut motion[..n],
+    let n = c.x.len();
+    let (sphere, f, t, im, ii, x0, motion) = (
+        &mut c.sphere[..n],
+        &mut c.f[..n],
+        &mut c.t[..n],
+        &c.im[..n],
+        &c.ii[..n],
+        &c.x0[..n],
+        &mut c.motion[..n],
     );
     for k in 0..n {
         let (s, q) = (sphere[k].0.as_mut_ptr(), &mut motion[k].0);
