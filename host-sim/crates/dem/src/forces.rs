@@ -1021,7 +1021,7 @@ pub(crate) fn wall_forces(
     let stride = params.walls.len().max(1);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
-    let bits = stride.min(64);
+    let bits = wall_bits(params.walls.len());
     let (candidates, candidate_start) = (&walls.candidates, &walls.candidate_start);
     let (by_wall, by_wall_start) = (&walls.by_wall, &walls.by_wall_start);
     (
@@ -1055,6 +1055,12 @@ pub(crate) fn wall_forces(
         });
     p.force_n = force;
     p.torque_n_m = torque;
+}
+
+/// Wall bits of a box of `walls` walls (wall w has bit min(w, 63)), each
+/// with a candidate list per wall-pass chunk; at least one.
+fn wall_bits(walls: usize) -> usize {
+    walls.clamp(1, 64)
 }
 
 /// Most walls [`WallContacts`] culls by: with more, every wall is checked.
@@ -1172,7 +1178,7 @@ impl WallContacts {
         let chunks = p.len().div_ceil(GATHER_CHUNK);
         self.candidate_start
             .resize(chunks + 1, self.candidates.len());
-        let bits = walls.len().clamp(1, 64);
+        let bits = wall_bits(walls.len());
         self.by_wall.clear();
         self.by_wall_start.clear();
         for c in 0..chunks {
