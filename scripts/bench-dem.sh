@@ -35,6 +35,7 @@ nwarm=$(steps 1000)
 nbench=$(steps 20000)
 npack=$(steps 10000)
 total=$((nwarm + nbench + npack))
+particles=20000 # the benchmark's bed (shared/bench), for both codes
 
 # The peer comes from Debian's package; install it where this script may.
 if ! command -v liggghts >/dev/null && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
@@ -64,7 +65,7 @@ ours() {
     end=$(date +%s.%N)
     echo "$out"
     timed=$(sed -n 's/.*overall_psps=\([0-9.]*\).*/\1/p' <<<"$out")
-    whole=$(calc '%.0f' "20000 * $total / ($end - $start)")
+    whole=$(calc '%.0f' "$particles * $total / ($end - $start)")
     printf 'ours %d: whole process %s s: %s M particle-steps/s\n' \
         "$1" "$(calc '%.2f' "$end - $start")" "$(calc '%.2f' "$whole / 1e6")"
 }
@@ -86,8 +87,8 @@ peer() {
     # lines (the 1-step time-step check and the final run 0 excluded).
     loops=$(grep -o 'Loop time of [0-9.e+-]*' "$tmp/out.$1" | awk '{print $4}')
     t=$(awk 'NR==1||NR==3||NR==4{s+=$1} END{print s}' <<<"$loops")
-    timed=$(calc '%.0f' "20000 * $total / $t")
-    whole=$(calc '%.0f' "20000 * $total / ($end - $start)")
+    timed=$(calc '%.0f' "$particles * $total / $t")
+    whole=$(calc '%.0f' "$particles * $total / ($end - $start)")
     grep -E "FINAL|TIMESTEP CHECK" "$tmp/out.$1" || true
     printf 'LIGGGHTS %d: whole process %s s: %s M particle-steps/s (timed loops %.2f s)\n' \
         "$1" "$(calc '%.2f' "$end - $start")" "$(calc '%.2f' "$whole / 1e6")" "$t"
@@ -99,19 +100,17 @@ for r in $(seq "$rounds"); do
     for w in 1 2; do
         [ "$rounds" = 1 ] || echo "== round $r of $rounds =="
         ours "$w"
-        o="$whole $timed"
-        p="- -"
+        ours_whole=$whole ours_timed=$timed peer_whole=- peer_timed=-
         if [ "$peer_ok" = yes ]; then
             peer "$w"
-            p="$whole $timed"
+            peer_whole=$whole peer_timed=$timed
         fi
-        set -- $o $p
-        rows+="$r $w $1 $3 $2 $4"$'\n'
+        rows+="$r $w $ours_whole $peer_whole $ours_timed $peer_timed"$'\n'
     done
 done
 
 echo
-echo "== DEM throughput, M particle-steps/s ($total steps x 20,000 particles) =="
+echo "== DEM throughput, M particle-steps/s ($total steps x $particles particles) =="
 echo "(whole process for both; in brackets over the timed phases alone: ours as it"
 echo " times them, LIGGGHTS by its Loop times)"
 printf '%s' "$rows" | awk -v rounds="$rounds" '
