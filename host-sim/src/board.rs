@@ -99,8 +99,10 @@ pub fn board(a: BoardArgs) -> Result<()> {
                 eprintln!("note: {n}");
             }
             println!(
-                "{} sample(s), {} cycle(s), {} frame(s) failed their CRC; wrote {}{}",
+                "{} sample(s) recorded, {} written, {} cycle(s), {} frame(s) failed their CRC; \
+                 wrote {}{}",
                 outcome.samples,
+                outcome.samples_written,
                 outcome.cycles,
                 outcome.crc_errors,
                 outcome.folder.display(),

@@ -65,8 +65,11 @@ pub struct RunOutcome {
     pub fault: Option<Fault>,
     /// Cycles the board completed.
     pub cycles: u16,
-    /// Telemetry samples recorded.
+    /// Telemetry samples recorded (in the capture).
     pub samples: usize,
+    /// Of them, samples written into the experiment: all but those the
+    /// conversion left out or dropped (see `notes`); 0 when none was written.
+    pub samples_written: usize,
     /// Board frames that failed their CRC during the run.
     pub crc_errors: u64,
     /// Notes of the conversion (dropped frames, …).
@@ -224,8 +227,10 @@ pub fn run(
         },
     );
     let mut notes = Vec::new();
+    let mut samples_written = 0;
     match conversion {
         Ok(c) => {
+            samples_written = c.experiment.runs.iter().map(|r| r.samples.len()).sum();
             c.experiment
                 .write(&partial)
                 .with_context(|| format!("writing the experiment into {}", partial.display()))?;
@@ -256,6 +261,7 @@ pub fn run(
         fault,
         cycles,
         samples,
+        samples_written,
         crc_errors,
         notes,
     };

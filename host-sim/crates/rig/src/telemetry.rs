@@ -126,6 +126,9 @@ pub struct Conversion {
     pub experiment: Experiment,
     /// Samples dropped because no pressure reading existed yet.
     pub dropped_samples: usize,
+    /// Samples left out because they carried the same `t_ms` as the
+    /// sample before them (two control steps within one millisecond).
+    pub same_ms_samples: usize,
     /// Frames dropped, noise, reboots, placeholder tables: one line each.
     pub notes: Vec<String>,
 }
@@ -282,6 +285,7 @@ pub fn to_experiment(capture: &Capture, options: &ConvertOptions) -> Result<Conv
     Ok(Conversion {
         experiment,
         dropped_samples: dropped,
+        same_ms_samples: same_ms,
         notes,
     })
 }

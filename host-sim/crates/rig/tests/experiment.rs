@@ -707,6 +707,7 @@ fn a_sample_at_the_same_millisecond_is_left_out_and_counted() {
     assert_eq!(runs.len(), 1);
     let t: Vec<f64> = runs[0].samples.iter().map(|s| s.t_s).collect();
     assert_eq!(t, [0.0, 0.01, 0.02]);
+    assert_eq!(conversion.same_ms_samples, 1);
     assert!(
         conversion
             .notes
