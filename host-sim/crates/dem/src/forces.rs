@@ -4,10 +4,11 @@
 //! wall contacts. The particles are split into blocks of consecutive
 //! indices (one per worker, sized by the work they took before); a block's
 //! pairs are evaluated and summed by one task as it goes, four touching
-//! pairs at a time (SIMD), and only the pairs that straddle two blocks are
-//! evaluated first and stored. Each particle so sums the same terms in the
-//! same order whatever the blocks, and the results do not depend on the
-//! thread count.
+//! pairs at a time (SIMD). A pair that straddles two blocks is evaluated by
+//! both, from the same history (the later block's copy of it as the step
+//! began), each adding its own particle's share. Each particle so sums the
+//! same terms in the same order whatever the blocks, and the results do not
+//! depend on the thread count.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -151,7 +152,7 @@ impl<'a> PairRun<'a> {
         }
     }
 
-    /// Positions in `slots` of the overlapping pairs into `touching`,
+    /// The overlapping pairs of the run's `slots` into `touching`,
     /// returning how many; pairs apart are marked closed. No branch on the
     /// outcome: which pairs touch is a coin toss to the branch predictor.
     #[inline(always)]
@@ -159,15 +160,14 @@ impl<'a> PairRun<'a> {
         &mut self,
         packed: &Packed,
         images: &Images,
-        slots: &[u32],
+        slots: std::ops::Range<usize>,
         touching: &mut [u32; PAIR_CHUNK],
         far: bool,
     ) -> usize {
         let p = &packed.sphere[..];
         let last = self.pj.len().saturating_sub(1);
         let mut count = 0;
-        for (n, &s) in slots.iter().enumerate() {
-            let s = s as usize;
+        for s in slots {
             // The sphere row for this test and the motion row for the
             // touching pair's evaluation, `PREFETCH_PAIRS` pairs on.
             if far {
@@ -176,27 +176,25 @@ impl<'a> PairRun<'a> {
                 prefetch(&packed.motion, ahead);
             }
             let on = overlapping::<PERIODIC>(p, self.pi[s] as usize, self.pj[s] as usize, images);
-            touching[count] = n as u32;
+            touching[count] = s as u32;
             count += usize::from(on);
             self.open[s] &= u8::from(on);
         }
         count
     }
 
-    /// Evaluates the overlapping pairs `slots[w]` for w in `which`, four at
+    /// Evaluates the overlapping pairs `which` (the run's slots), four at
     /// a time, calling `put(i, j, force)` for each pair (i, j) in order (the
     /// batch's own indices: looking them up again in `put` cost ≈ 4 %); a
     /// closed pair's history starts from zero. The last batch repeats its
     /// last pair (the same history in, the same values out).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn evaluate<const PERIODIC: bool>(
         &mut self,
         p: &Packed,
         images: &Images,
         model: &ContactModel,
         dt_s: f64,
-        slots: &[u32],
         which: &[u32],
         mut put: impl FnMut(usize, usize, ContactForce),
     ) {
@@ -208,7 +206,7 @@ impl<'a> PairRun<'a> {
         }
         for first in (0..which.len()).step_by(LANE_COUNT) {
             let batch: [usize; LANE_COUNT] =
-                std::array::from_fn(|l| slots[which[(first + l).min(last)] as usize] as usize);
+                std::array::from_fn(|l| which[(first + l).min(last)] as usize);
             let i = batch.map(|s| self.pi[s] as usize);
             let j = batch.map(|s| self.pj[s] as usize);
             let g = pair_geometry_lanes::<PERIODIC>(p, &i, &j, images);
@@ -311,14 +309,19 @@ pub(crate) struct Blocks {
     /// Each particle's cost per unit of estimated work, as learnt from the
     /// blocks' times (1 until timed).
     rate: Vec<f64>,
-    /// Pairs whose second particle lies in a later block, ascending.
-    cross: Vec<u32>,
-    /// Their forces at the last evaluation (zero when apart).
-    cross_force: Vec<ContactForce>,
-    /// `incoming[incoming_start[b]..incoming_start[b + 1]]`: positions in
-    /// `cross` of the pairs whose second particle lies in block b, ascending.
+    /// `incoming_start[b]..incoming_start[b + 1]`: the pairs whose second
+    /// particle lies in block b and whose first lies in an earlier one, in
+    /// pair order, as indices into the `incoming_*` rows below.
     incoming_start: Vec<usize>,
-    incoming: Vec<u32>,
+    /// Their first and second particles.
+    incoming_i: Vec<u32>,
+    incoming_j: Vec<u32>,
+    /// Their list indices.
+    incoming_k: Vec<u32>,
+    /// Their histories and open flags as the step began (copied before the
+    /// blocks run: the block of the first particle updates the list's).
+    incoming_history: Vec<History>,
+    incoming_open: Vec<u8>,
 }
 
 impl Blocks {
@@ -380,30 +383,49 @@ impl Blocks {
         for b in 0..count {
             block[self.first[b]..self.first[b + 1]].fill(b as u32);
         }
-        self.cross.clear();
         self.incoming_start.clear();
         self.incoming_start.resize(count + 1, 0);
-        for (k, (&i, &j)) in list.pair_i.iter().zip(&list.pair_j).enumerate() {
-            let bj = block[j as usize];
-            if bj != block[i as usize] {
-                self.cross.push(k as u32);
-                self.incoming_start[bj as usize + 1] += 1;
-            }
+        let crossing = || {
+            (list.pair_i.iter().zip(&list.pair_j).enumerate())
+                .filter(|&(_, (&i, &j))| block[i as usize] != block[j as usize])
+        };
+        for (_, (_, &j)) in crossing() {
+            self.incoming_start[block[j as usize] as usize + 1] += 1;
         }
         for b in 0..count {
             self.incoming_start[b + 1] += self.incoming_start[b];
         }
+        let n_incoming = self.incoming_start[count];
         let mut fill = self.incoming_start[..count].to_vec();
-        self.incoming.clear();
-        self.incoming.resize(self.cross.len(), 0);
-        for (c, &k) in self.cross.iter().enumerate() {
-            let slot = &mut fill[block[list.pair_j[k as usize] as usize] as usize];
-            self.incoming[*slot] = c as u32;
+        for v in [
+            &mut self.incoming_i,
+            &mut self.incoming_j,
+            &mut self.incoming_k,
+        ] {
+            v.clear();
+            v.resize(n_incoming, 0);
+        }
+        // Pair order within each block: the list is in pair order.
+        for (k, (&i, &j)) in crossing() {
+            let slot = &mut fill[block[j as usize] as usize];
+            self.incoming_i[*slot] = i;
+            self.incoming_j[*slot] = j;
+            self.incoming_k[*slot] = k as u32;
             *slot += 1;
         }
-        self.cross_force.clear();
-        self.cross_force
-            .resize(self.cross.len(), ContactForce::default());
+        self.incoming_history.clear();
+        self.incoming_history.resize(n_incoming, [0.0; HISTORY_LEN]);
+        self.incoming_open.clear();
+        self.incoming_open.resize(n_incoming, 0);
+    }
+
+    /// Copies the incoming pairs' histories and open flags from `list`,
+    /// before the blocks change them.
+    fn copy_incoming(&mut self, list: &NeighbourList) {
+        for (n, &k) in self.incoming_k.iter().enumerate() {
+            self.incoming_history[n] = list.history[k as usize];
+            self.incoming_open[n] = list.open[k as usize];
+        }
     }
 
     /// Number of blocks.
@@ -519,9 +541,6 @@ struct Inputs<'a> {
     model: &'a ContactModel,
     dt_s: f64,
     body_accel: Vector3<f64>,
-    pj: &'a [u32],
-    cross: &'a [u32],
-    cross_force: &'a [ContactForce],
     /// Whether the bed is too large for the caches, so that the pass
     /// prefetches what it will reach out of order ([`FAR_FROM`]).
     far: bool,
@@ -548,93 +567,35 @@ macro_rules! dispatch {
 }
 
 impl PairRun<'_> {
-    /// Evaluates the straddling pairs `mine` (list indices, ascending; the
-    /// run starts at list index `k0`) into `out`, zero when apart.
-    #[inline(always)]
-    fn straddling(&mut self, x: &Inputs, k0: usize, mine: &[u32], out: &mut [ContactForce]) {
-        if x.images.any() {
-            self.straddling_in::<true>(x, k0, mine, out)
-        } else {
-            self.straddling_in::<false>(x, k0, mine, out)
-        }
-    }
-
-    /// [`PairRun::straddling`] for a box with (`PERIODIC`) or without
-    /// periodic axes.
-    #[inline(always)]
-    fn straddling_in<const PERIODIC: bool>(
-        &mut self,
-        x: &Inputs,
-        k0: usize,
-        mine: &[u32],
-        out: &mut [ContactForce],
-    ) {
-        let mut slots = [0u32; PAIR_CHUNK];
-        let mut touching = [0u32; PAIR_CHUNK];
-        for (chunk, out) in mine.chunks(PAIR_CHUNK).zip(out.chunks_mut(PAIR_CHUNK)) {
-            for (s, &k) in slots.iter_mut().zip(chunk) {
-                *s = k - k0 as u32;
-            }
-            let slots = &slots[..chunk.len()];
-            let count = self.sort_out::<PERIODIC>(x.packed, x.images, slots, &mut touching, x.far);
-            out.fill(ContactForce::default());
-            let which = &touching[..count];
-            let mut w = 0;
-            self.evaluate::<PERIODIC>(
-                x.packed,
-                x.images,
-                x.model,
-                x.dt_s,
-                slots,
-                which,
-                |_, _, cf| {
-                    out[which[w] as usize] = cf;
-                    w += 1;
-                },
-            );
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn straddling_avx2(&mut self, x: &Inputs, k0: usize, mine: &[u32], out: &mut [ContactForce]) {
-        self.straddling(x, k0, mine, out)
-    }
-
     /// The forces on block `lo..hi` (`f`, `t` from `lo`): body force, the
-    /// straddling pairs `incoming` (positions in `x.cross`) of earlier
-    /// blocks, then this run's pairs (list indices from `k0`; those that
-    /// straddle from position `cursor` of `x.cross` on).
-    #[allow(clippy::too_many_arguments)]
+    /// pairs `incoming` from earlier blocks (to their second particle
+    /// only, from the histories as the step began: their first particle's
+    /// block updates the list's), then this run's pairs (to their second
+    /// particle only if it lies in the block).
     #[inline(always)]
     fn block(
         &mut self,
         x: &Inputs,
         range: (usize, usize),
-        k0: usize,
-        incoming: &[u32],
-        cursor: usize,
+        incoming: &mut PairRun,
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
         if x.images.any() {
-            self.block_in::<true>(x, range, k0, incoming, cursor, f, t)
+            self.block_in::<true>(x, range, incoming, f, t)
         } else {
-            self.block_in::<false>(x, range, k0, incoming, cursor, f, t)
+            self.block_in::<false>(x, range, incoming, f, t)
         }
     }
 
     /// [`PairRun::block`] for a box with (`PERIODIC`) or without periodic
     /// axes.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn block_in<const PERIODIC: bool>(
         &mut self,
         x: &Inputs,
         (lo, hi): (usize, usize),
-        k0: usize,
-        incoming: &[u32],
-        mut cursor: usize,
+        incoming: &mut PairRun,
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
@@ -649,24 +610,41 @@ impl PairRun<'_> {
                 *t = Vector3::zeros();
             }
         }
-        for &c in incoming {
-            let j = x.pj[x.cross[c as usize] as usize] as usize;
-            let cf = &x.cross_force[c as usize];
-            add_contact(&mut f[j - lo], &mut t[j - lo], cf, p.radius_m[j], true);
-        }
-        let mut slots = [0u32; PAIR_CHUNK];
-        let mut touching = [0u32; PAIR_CHUNK];
-        let mut inside = [0u32; PAIR_CHUNK];
-        let mut outside = [0u32; PAIR_CHUNK];
-        let (pi, pj) = (self.pi, self.pj);
         let radius = |i: usize| x.packed.sphere[i].0[3];
-        let len = pi.len();
-        for s0 in (0..len).step_by(PAIR_CHUNK) {
-            let m = PAIR_CHUNK.min(len - s0);
-            for (n, s) in slots[..m].iter_mut().enumerate() {
-                *s = (s0 + n) as u32;
+        // A particle's pairs from earlier blocks come first in its sum:
+        // their first particles are lower.
+        incoming.each_contact::<PERIODIC>(x, lo, f, t, |f, t, _, j, cf| {
+            add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
+        });
+        // Each pair's result goes straight to both particles, in pair
+        // order: a particle's sum sees the same terms in the same order as
+        // if the pairs were taken one by one. A pair whose second particle
+        // lies in a later block is that block's incoming pair.
+        self.each_contact::<PERIODIC>(x, lo, f, t, |f, t, i, j, cf| {
+            add_contact(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
+            if j < hi {
+                add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
             }
-            let slots = &slots[..m];
+        });
+    }
+
+    /// Tests the run's pairs for overlap and evaluates the touching ones,
+    /// a chunk at a time, calling `put(f, t, i, j, force)` for each in pair
+    /// order (`f`, `t`: the sums of the block from particle `lo` on).
+    #[inline(always)]
+    fn each_contact<const PERIODIC: bool>(
+        &mut self,
+        x: &Inputs,
+        lo: usize,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+        mut put: impl FnMut(&mut [Vector3<f64>], &mut [Vector3<f64>], usize, usize, ContactForce),
+    ) {
+        let mut touching = [0u32; PAIR_CHUNK];
+        let pj = self.pj;
+        let len = pj.len();
+        for s0 in (0..len).step_by(PAIR_CHUNK) {
+            let slots = s0..PAIR_CHUNK.min(len - s0) + s0;
             // The next chunk's second particles' force and torque: the
             // block's sums were set at its start, long evicted on a large
             // bed (980,000 grains: 131 → 125 ns a particle-step).
@@ -679,65 +657,24 @@ impl PairRun<'_> {
                 }
             }
             let count = self.sort_out::<PERIODIC>(x.packed, x.images, slots, &mut touching, x.far);
-            let (mut n_inside, mut n_outside) = (0, 0);
-            for &w in &touching[..count] {
-                let is_inside = (pj[slots[w as usize] as usize] as usize) < hi;
-                inside[n_inside] = w;
-                outside[n_outside] = w;
-                n_inside += usize::from(is_inside);
-                n_outside += usize::from(!is_inside);
-            }
-            // Each inside pair's result goes straight to both particles, in
-            // pair order: a particle's sum sees the same terms in the same
-            // order as if the pairs were taken one by one.
-            let which = &inside[..n_inside];
-            self.evaluate::<PERIODIC>(
-                x.packed,
-                x.images,
-                x.model,
-                x.dt_s,
-                slots,
-                which,
-                |i, j, cf| {
-                    add_contact(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
-                    add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
-                },
-            );
-            // A particle's straddling pairs come after its inside ones (j
-            // ascending) and nothing is added to it after its own pairs, so
-            // adding them after this chunk's inside pairs keeps the order.
-            for &w in &outside[..n_outside] {
-                let s = slots[w as usize] as usize;
-                let i = pi[s] as usize;
-                let k = (k0 + s) as u32;
-                while x.cross[cursor] < k {
-                    cursor += 1;
-                }
-                add_contact(
-                    &mut f[i - lo],
-                    &mut t[i - lo],
-                    &x.cross_force[cursor],
-                    radius(i),
-                    false,
-                );
-            }
+            let which = &touching[..count];
+            self.evaluate::<PERIODIC>(x.packed, x.images, x.model, x.dt_s, which, |i, j, cf| {
+                put(f, t, i, j, cf)
+            });
         }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
     fn block_avx2(
         &mut self,
         x: &Inputs,
         range: (usize, usize),
-        k0: usize,
-        incoming: &[u32],
-        cursor: usize,
+        incoming: &mut PairRun,
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
-        self.block(x, range, k0, incoming, cursor, f, t)
+        self.block(x, range, incoming, f, t)
     }
 }
 
@@ -755,88 +692,49 @@ pub(crate) fn pair_forces(
 ) {
     let simd = simd();
     blocks.split(list, rayon::current_num_threads() * BLOCKS_PER_WORKER);
+    blocks.copy_incoming(list);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
     let nb = blocks.count();
     let first = &blocks.first;
     let start = &list.start;
-    // Pair range of block b, and its straddling pairs' range in `cross`.
+    // Pair range of block b.
     let pairs_of = |b: usize| start[first[b]] as usize..start[first[b + 1]] as usize;
-    let cross = &blocks.cross;
-    let cross_of = |b: usize| {
-        let r = pairs_of(b);
-        cross.partition_point(|&k| (k as usize) < r.start)
-            ..cross.partition_point(|&k| (k as usize) < r.end)
-    };
     let (pi, pj) = (&list.pair_i[..], &list.pair_j[..]);
-    let mut x = Inputs {
+    let x = Inputs {
         p,
         packed,
         images,
         model: &params.pair_model,
         dt_s: params.dt_s,
         body_accel: params.gravity_m_s2 * params.buoyancy_factor(),
-        pj,
-        cross,
-        cross_force: &[],
         far: far(p.len()),
         preset,
     };
-
-    // 1. The straddling pairs, in as many pieces of equal count as there
-    // are blocks (they bunch where blocks meet, so by block they would fall
-    // to one worker); piece q owns the list's pairs from its first
-    // straddling pair to the next piece's.
-    let pieces = nb.min(cross.len()).max(1);
-    let cut = |q: usize| cross.len() * q / pieces;
-    let pair_cut = |q: usize| match q {
-        0 => 0,
-        q if q == pieces => pi.len(),
-        q => cross[cut(q)] as usize,
-    };
-    let piece_pairs = || (0..pieces).map(|q| pair_cut(q + 1) - pair_cut(q));
-    let histories = split_lengths(&mut list.history, piece_pairs());
-    let opens = split_lengths(&mut list.open, piece_pairs());
-    let outs = split_lengths(
-        &mut blocks.cross_force,
-        (0..pieces).map(|q| cut(q + 1) - cut(q)),
-    );
-    (histories, opens, outs)
-        .into_par_iter()
-        .enumerate()
-        .for_each(|(q, (history, open, out))| {
-            let ks = pair_cut(q)..pair_cut(q + 1);
-            let mut run = PairRun::of(pi, pj, ks.clone(), history, open);
-            let mine = &cross[cut(q)..cut(q + 1)];
-            dispatch!(
-                simd,
-                run.straddling_avx2 / straddling(&x, ks.start, mine, out)
-            );
-        });
-
-    // 2. Each block in pair order: what its particles receive from the
-    // straddling pairs of earlier blocks, then its own pairs.
-    x.cross_force = &blocks.cross_force;
-    let (incoming, incoming_start) = (&blocks.incoming, &blocks.incoming_start);
+    let incoming_start = &blocks.incoming_start;
+    let incoming_of = |b: usize| incoming_start[b]..incoming_start[b + 1];
+    let (incoming_i, incoming_j) = (&blocks.incoming_i[..], &blocks.incoming_j[..]);
+    let incoming_lens = || (0..nb).map(|b| incoming_of(b).len());
+    let incoming_histories = split_lengths(&mut blocks.incoming_history, incoming_lens());
+    let incoming_opens = split_lengths(&mut blocks.incoming_open, incoming_lens());
     let block_lens = || (0..nb).map(|b| first[b + 1] - first[b]);
     let histories = split_lengths(&mut list.history, (0..nb).map(|b| pairs_of(b).len()));
     let opens = split_lengths(&mut list.open, (0..nb).map(|b| pairs_of(b).len()));
     let forces = split_lengths(&mut force, block_lens());
     let torques = split_lengths(&mut torque, block_lens());
-    let spent_ns: Vec<u64> = (histories, opens, forces, torques)
+    let spent_ns: Vec<u64> = (
+        (histories, opens, forces, torques),
+        (incoming_histories, incoming_opens),
+    )
         .into_par_iter()
         .enumerate()
-        .map(|(b, (history, open, f, t))| {
+        .map(|(b, ((history, open, f, t), (in_history, in_open)))| {
             let started = std::time::Instant::now();
-            let ks = pairs_of(b);
-            let mut run = PairRun::of(pi, pj, ks.clone(), history, open);
-            let into = &incoming[incoming_start[b]..incoming_start[b + 1]];
+            let mut run = PairRun::of(pi, pj, pairs_of(b), history, open);
+            let ks = incoming_of(b);
+            let mut incoming = PairRun::of(incoming_i, incoming_j, ks, in_history, in_open);
             let range = (first[b], first[b + 1]);
-            let cursor = cross_of(b).start;
-            dispatch!(
-                simd,
-                run.block_avx2 / block(&x, range, ks.start, into, cursor, f, t)
-            );
+            dispatch!(simd, run.block_avx2 / block(&x, range, &mut incoming, f, t));
             u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX)
         })
         .collect();
@@ -1230,8 +1128,9 @@ mod tests {
         let mut blocks = Blocks::default();
         blocks.split(&list, 2);
         assert_eq!(blocks.first, vec![0, 100, 200]);
-        // Straddling: only the pair (99, 100).
-        assert_eq!(blocks.cross.len(), 1);
+        // Straddling: only the pair (99, 100), incoming to block 1.
+        assert_eq!(blocks.incoming_start, vec![0, 0, 1]);
+        assert_eq!((blocks.incoming_i[0], blocks.incoming_j[0]), (99, 100));
     }
 
     #[test]
