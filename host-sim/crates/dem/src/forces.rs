@@ -46,7 +46,7 @@ pub(crate) fn far(n: usize) -> bool {
 /// the wall-force partial sums, so totals do not depend on the thread count).
 const GATHER_CHUNK: usize = 512;
 /// Blocks per worker: one, so that as few pairs as possible straddle two
-/// blocks (they are evaluated in a pass of their own); the measured times
+/// blocks (each is evaluated by both); the measured times
 /// even out what the work estimate misses ([`Blocks::split`]).
 const BLOCKS_PER_WORKER: usize = 1;
 /// Cost of a touching pair in the pass, in listed pairs apart (measured:
