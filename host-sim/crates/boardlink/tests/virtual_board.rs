@@ -9,6 +9,18 @@ use urechis::controller::{Fault, Params, State};
 use urechis::protocol::{HostCommand, NackReason, StoredTable, TableSource, PROTOCOL_VERSION};
 use vboard::{Options, VirtualBoard};
 
+/// One virtual board at a time: each runs the firmware's tasks in real time
+/// on threads of its own, and two at once on a 2-core machine (with the
+/// debug build's slower plant) have starved a sensor read past its retries
+/// into a SensorBus fault.
+static ONE_BOARD: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Holds [`ONE_BOARD`] for the rest of a test (a failed test's poison is
+/// the lock's, not the next test's).
+fn one_board() -> std::sync::MutexGuard<'static, ()> {
+    ONE_BOARD.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn board() -> (VirtualBoard, Link) {
     let vb = VirtualBoard::start(&Options::default()).expect("virtual board");
     let link = Link::open(vb.port()).expect("open the pty");
@@ -17,6 +29,7 @@ fn board() -> (VirtualBoard, Link) {
 
 #[test]
 fn info_reports_the_compiled_in_table_and_no_zero() {
+    let _board = one_board();
     let (_vb, mut link) = board();
     let info = link.connect().unwrap();
     assert_eq!(info.protocol_version, PROTOCOL_VERSION);
@@ -32,6 +45,7 @@ fn info_reports_the_compiled_in_table_and_no_zero() {
 
 #[test]
 fn tare_then_link_loss_stops_the_cycle_safely() {
+    let _board = one_board();
     let (vb, mut link) = board();
     link.connect().unwrap();
     // No zero yet: Start is refused.
@@ -87,6 +101,7 @@ fn other_table_image() -> (Vec<u8>, u32) {
 
 #[test]
 fn pushed_table_is_refused_when_corrupt_and_used_after_a_reboot() {
+    let _board = one_board();
     let (vb, mut link) = board();
     link.connect().unwrap();
     expect_ack(&mut link, HostCommand::Tare, 3000).unwrap();
@@ -136,12 +151,13 @@ fn rig_file(dir: &std::path::Path) -> std::path::PathBuf {
 
 #[test]
 fn a_recorded_run_and_a_fault_scenario() {
+    let _board = one_board();
     let dir = tempfile::tempdir().unwrap();
     let rig = rig_file(dir.path());
     let stop = std::sync::atomic::AtomicBool::new(false);
 
     // A healthy run of one cycle, recorded.
-    let (_vb, mut link) = board();
+    let (vb, mut link) = board();
     link.connect().unwrap();
     expect_ack(&mut link, HostCommand::Tare, 3000).unwrap();
     let out = dir.path().join("healthy");
@@ -186,6 +202,10 @@ fn a_recorded_run_and_a_fault_scenario() {
         .map(|s| s.pressure_kpa)
         .fold(0.0, f64::max);
     assert!(peak > 1.0, "a head expanding in sand at 40 mm: {peak} kPa");
+
+    // The first board is dropped before the next starts: an idle board's
+    // tasks still run in real time.
+    drop((link, vb));
 
     // The sensor drops off the bus mid-expansion: the board latches
     // SensorBus, the host reports it and keeps the data.
@@ -250,15 +270,20 @@ fn scenario_run(name: &str) -> (boardlink::RunOutcome, u64, VirtualBoard) {
 
 #[test]
 fn sensor_bus_faults_on_the_firmwares_own_sensor_task() {
+    let _board = one_board();
     // One failed attempt: retried at once, the cycle completes (the
     // emulator's scenario shows no reading lost; here a loaded host may
     // stretch the read into a timeout, which costs a recovery, no more).
-    let (o, _, _vb) = scenario_run("sensor_glitch");
+    // Each board is dropped before the next starts: an idle board's tasks
+    // still run in real time.
+    let (o, _, vb) = scenario_run("sensor_glitch");
+    drop(vb);
     assert_eq!((o.fault, o.cycles), (None, 1));
     // A held SDA: one failed period, the firmware's bus clear on the
     // simulated lines frees it, the part is re-initialised, the cycle
     // completes.
-    let (o, recoveries, _vb) = scenario_run("stuck_sda");
+    let (o, recoveries, vb) = scenario_run("stuck_sda");
+    drop(vb);
     assert_eq!((o.fault, o.cycles), (None, 1));
     assert!(recoveries >= 1, "{recoveries}");
     // A burst that outlasts the retries and recoveries: SensorBus.
