@@ -97,8 +97,8 @@ peer() {
 # rows: "round workers ours peer ours-timed peer-timed" per run.
 rows=""
 for r in $(seq "$rounds"); do
+    [ "$rounds" = 1 ] || echo "== round $r of $rounds =="
     for w in 1 2; do
-        [ "$rounds" = 1 ] || echo "== round $r of $rounds =="
         ours "$w"
         ours_whole=$whole ours_timed=$timed peer_whole=- peer_timed=-
         if [ "$peer_ok" = yes ]; then

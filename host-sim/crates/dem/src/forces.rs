@@ -46,8 +46,8 @@ pub(crate) fn far(n: usize) -> bool {
 /// the wall-force partial sums, so totals do not depend on the thread count).
 const GATHER_CHUNK: usize = 512;
 /// Blocks per worker: one, so that as few pairs as possible straddle two
-/// blocks (each is evaluated by both); the measured times
-/// even out what the work estimate misses ([`Blocks::split`]).
+/// blocks (each is evaluated by both); the measured times even out what the
+/// work estimate misses ([`Blocks::split`]).
 const BLOCKS_PER_WORKER: usize = 1;
 /// Cost of a touching pair in the pass, in listed pairs apart (measured:
 /// ≈ 25 ns against ≈ 5 ns); only the first split of a run relies on it.
@@ -644,7 +644,7 @@ impl PairRun<'_> {
         let pj = self.pj;
         let len = pj.len();
         for s0 in (0..len).step_by(PAIR_CHUNK) {
-            let slots = s0..PAIR_CHUNK.min(len - s0) + s0;
+            let slots = s0..(s0 + PAIR_CHUNK).min(len);
             // The next chunk's second particles' force and torque: the
             // block's sums were set at its start, long evicted on a large
             // bed (980,000 grains: 131 → 125 ns a particle-step).
