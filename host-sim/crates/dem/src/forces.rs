@@ -19,6 +19,7 @@ use super::contact::{
 use super::neighbour::NeighbourList;
 use super::particles::{Packed, Particles, Sphere};
 use super::periodic::Images;
+use super::team::Team;
 use super::walls::{Wall, WallShape};
 use super::{split_lengths, Params};
 
@@ -680,18 +681,19 @@ impl PairRun<'_> {
 
 /// Body force and every pair contact of each particle into `p.force_n` and
 /// `p.torque_n_m` (overwritten), updating the pairs' histories; `packed`
-/// is `p`'s current state packed ([`Particles::pack_into`]).
+/// is `p`'s current state packed ([`Particles::pack_into`]); with
+/// `preset`, the sums already hold the body force (the first sweep set
+/// them).
 pub(crate) fn pair_forces(
     params: &Params,
     p: &mut Particles,
-    list: &mut NeighbourList,
-    blocks: &mut Blocks,
-    packed: &Packed,
+    (list, blocks): (&mut NeighbourList, &mut Blocks),
+    (packed, preset): (&Packed, bool),
     images: &Images,
-    preset: bool,
+    team: &Team,
 ) {
     let simd = simd();
-    blocks.split(list, rayon::current_num_threads() * BLOCKS_PER_WORKER);
+    blocks.split(list, team.workers() * BLOCKS_PER_WORKER);
     blocks.copy_incoming(list);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
@@ -722,13 +724,14 @@ pub(crate) fn pair_forces(
     let opens = split_lengths(&mut list.open, (0..nb).map(|b| pairs_of(b).len()));
     let forces = split_lengths(&mut force, block_lens());
     let torques = split_lengths(&mut torque, block_lens());
-    let spent_ns: Vec<u64> = (
-        (histories, opens, forces, torques),
-        (incoming_histories, incoming_opens),
-    )
-        .into_par_iter()
-        .enumerate()
-        .map(|(b, ((history, open, f, t), (in_history, in_open)))| {
+    let mut incoming = incoming_histories.into_iter().zip(incoming_opens);
+    let parts = (histories.into_iter().zip(opens))
+        .zip(forces.into_iter().zip(torques))
+        .map_while(|(own, sums)| Some((own, sums, incoming.next()?)))
+        .collect();
+    let spent_ns = team.map(
+        parts,
+        |b, ((history, open), (f, t), (in_history, in_open))| {
             let started = std::time::Instant::now();
             let mut run = PairRun::of(pi, pj, pairs_of(b), history, open);
             let ks = incoming_of(b);
@@ -736,8 +739,8 @@ pub(crate) fn pair_forces(
             let range = (first[b], first[b + 1]);
             dispatch!(simd, run.block_avx2 / block(&x, range, &mut incoming, f, t));
             u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX)
-        })
-        .collect();
+        },
+    );
     for (total, t) in blocks.spent_ns.iter_mut().zip(spent_ns) {
         *total = total.saturating_add(t);
     }
@@ -914,6 +917,7 @@ pub(crate) fn wall_forces(
     p: &mut Particles,
     packed: &Packed,
     walls: &mut WallContacts,
+    team: &Team,
 ) {
     let simd = simd();
     let stride = params.walls.len().max(1);
@@ -922,35 +926,34 @@ pub(crate) fn wall_forces(
     let bits = wall_bits(params.walls.len());
     let (candidates, candidate_start) = (&walls.candidates, &walls.candidate_start);
     let (by_wall, by_wall_start) = (&walls.by_wall, &walls.by_wall_start);
-    (
-        force.par_chunks_mut(GATHER_CHUNK),
-        torque.par_chunks_mut(GATHER_CHUNK),
-        walls.history.par_chunks_mut(GATHER_CHUNK * stride),
-        walls.open.par_chunks_mut(GATHER_CHUNK),
-        walls.partial.par_chunks_mut(stride),
-        walls.partial_normal.par_chunks_mut(stride),
-    )
-        .into_par_iter()
-        .enumerate()
-        .for_each(|(c, (f, t, wh, mask, wp, wn))| {
-            let chunk = WallChunk {
-                params,
-                p: packed,
-                candidates: &candidates[candidate_start[c]..candidate_start[c + 1]],
-                by_wall: &by_wall[by_wall_start[c * bits]..by_wall_start[(c + 1) * bits]],
-                by_wall_start: &by_wall_start[c * bits..=(c + 1) * bits],
-                lo: c * GATHER_CHUNK,
-            };
-            let out = WallOut {
+    let mut wh = walls.history.chunks_mut(GATHER_CHUNK * stride);
+    let mut mask = walls.open.chunks_mut(GATHER_CHUNK);
+    let mut wp = walls.partial.chunks_mut(stride);
+    let mut wn = walls.partial_normal.chunks_mut(stride);
+    let mut t = torque.chunks_mut(GATHER_CHUNK);
+    let chunks = (force.chunks_mut(GATHER_CHUNK))
+        .map_while(|f| {
+            Some(WallOut {
                 f,
-                t,
-                wh,
-                mask,
-                wp,
-                wn,
-            };
-            dispatch!(simd, chunk.run_avx2 / run(out));
-        });
+                t: t.next()?,
+                wh: wh.next()?,
+                mask: mask.next()?,
+                wp: wp.next()?,
+                wn: wn.next()?,
+            })
+        })
+        .collect();
+    team.map(chunks, |c, out| {
+        let chunk = WallChunk {
+            params,
+            p: packed,
+            candidates: &candidates[candidate_start[c]..candidate_start[c + 1]],
+            by_wall: &by_wall[by_wall_start[c * bits]..by_wall_start[(c + 1) * bits]],
+            by_wall_start: &by_wall_start[c * bits..=(c + 1) * bits],
+            lo: c * GATHER_CHUNK,
+        };
+        dispatch!(simd, chunk.run_avx2 / run(out));
+    });
     p.force_n = force;
     p.torque_n_m = torque;
 }
@@ -1208,11 +1211,10 @@ mod pass_parts_alone {
                     pair_forces(
                         &params,
                         &mut state.particles,
-                        &mut state.neighbours,
-                        &mut state.blocks,
-                        &state.packed,
+                        (&mut state.neighbours, &mut state.blocks),
+                        (&state.packed, false),
                         &state.images,
-                        false,
+                        &Team::alone(),
                     );
                     spent += started.elapsed().as_secs_f64();
                 }

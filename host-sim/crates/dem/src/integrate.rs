@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use super::forces::{far, simd, Simd};
 use super::particles::{pack_one, Motion, Packed, Particles, Sphere};
+use super::team::Team;
 
 /// Particles per parallel task.
 const CHUNK: usize = 1024;
@@ -31,10 +32,11 @@ pub(crate) fn kick_drift(
     reference_m: &[Vector3<f64>],
     packed: &mut Packed,
     (close_previous, from_rows): (bool, bool),
+    team: &Team,
 ) -> f64 {
     // Rows that are read first are not streamed past the caches.
     let stream = !from_rows && far(p.len());
-    let args = (p, dt_s, body_accel_m_s2, reference_m, packed);
+    let args = (p, dt_s, body_accel_m_s2, reference_m, packed, team);
     match (close_previous, stream, from_rows) {
         (true, true, _) => kick_drift_in::<true, true, false>(args),
         (false, true, _) => kick_drift_in::<false, true, false>(args),
@@ -46,12 +48,13 @@ pub(crate) fn kick_drift(
 }
 
 /// The arguments of [`kick_drift`] but the flags.
-type KickDriftArgs<'a> = (
+type KickDriftArgs<'a, 't, 's> = (
     &'a mut Particles,
     f64,
     Vector3<f64>,
     &'a [Vector3<f64>],
     &'a mut Packed,
+    &'a Team<'t, 's>,
 );
 
 /// [`kick_drift`], compiled with and without the closing half kick
@@ -59,49 +62,54 @@ type KickDriftArgs<'a> = (
 /// beyond the caches: see [`store_rows`]) and the motion taken from the
 /// rows (`FROM_ROWS`), so that none pays a branch per particle.
 fn kick_drift_in<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
-    (p, dt_s, body, reference_m, packed): KickDriftArgs,
+    (p, dt_s, body, reference_m, packed, team): KickDriftArgs,
 ) -> f64 {
     let simd = simd();
     packed.resize(p.len());
     let (r, m) = (&p.radius_m[..], &p.mass_kg[..]);
-    let max2 = (
-        p.position_m.par_chunks_mut(CHUNK),
-        p.velocity_m_s.par_chunks_mut(CHUNK),
-        p.angular_velocity_rad_s.par_chunks_mut(CHUNK),
-        p.force_n.par_chunks_mut(CHUNK),
-        p.torque_n_m.par_chunks_mut(CHUNK),
-        p.inv_mass_per_kg.par_chunks(CHUNK),
-        p.inv_inertia_per_kg_m2.par_chunks(CHUNK),
-        reference_m.par_chunks(CHUNK),
-        packed.sphere.par_chunks_mut(CHUNK),
-        packed.motion.par_chunks_mut(CHUNK),
-    )
-        .into_par_iter()
-        .enumerate()
-        .map(|(c, (x, v, w, f, t, im, ii, x0, sphere, motion))| {
-            let chunk = Chunk {
-                first: c * CHUNK,
-                x,
-                v,
-                w,
-                f,
-                t,
-                im,
-                ii,
-                x0,
-                sphere,
-                motion,
-            };
-            let args = (chunk, r, m, dt_s, body);
-            #[cfg(target_arch = "x86_64")]
-            if simd == Simd::Avx2 {
-                // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
-                return unsafe { sweep_avx2::<CLOSE, STREAM, FROM_ROWS>(args) };
-            }
-            sweep::<CLOSE, STREAM, FROM_ROWS>(args)
-        })
-        .reduce(|| 0, u64::max);
-    f64::from_bits(max2)
+    let mut chunks = Vec::with_capacity(p.len().div_ceil(CHUNK));
+    let mut x0 = reference_m.chunks(CHUNK);
+    let mut im = p.inv_mass_per_kg.chunks(CHUNK);
+    let mut ii = p.inv_inertia_per_kg_m2.chunks(CHUNK);
+    let mut sphere = packed.sphere.chunks_mut(CHUNK);
+    let mut motion = packed.motion.chunks_mut(CHUNK);
+    let mut v = p.velocity_m_s.chunks_mut(CHUNK);
+    let mut w = p.angular_velocity_rad_s.chunks_mut(CHUNK);
+    let mut f = p.force_n.chunks_mut(CHUNK);
+    let mut t = p.torque_n_m.chunks_mut(CHUNK);
+    for (c, x) in p.position_m.chunks_mut(CHUNK).enumerate() {
+        let pieces = (v.next(), w.next(), f.next(), t.next(), im.next(), ii.next());
+        let rows = (x0.next(), sphere.next(), motion.next());
+        let (Some(v), Some(w), Some(f), Some(t), Some(im), Some(ii)) = pieces else {
+            break;
+        };
+        let (Some(x0), Some(sphere), Some(motion)) = rows else {
+            break;
+        };
+        chunks.push(Chunk {
+            first: c * CHUNK,
+            x,
+            v,
+            w,
+            f,
+            t,
+            im,
+            ii,
+            x0,
+            sphere,
+            motion,
+        });
+    }
+    let max2 = team.map(chunks, |_, chunk| {
+        let args = (chunk, r, m, dt_s, body);
+        #[cfg(target_arch = "x86_64")]
+        if simd == Simd::Avx2 {
+            // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
+            return unsafe { sweep_avx2::<CLOSE, STREAM, FROM_ROWS>(args) };
+        }
+        sweep::<CLOSE, STREAM, FROM_ROWS>(args)
+    });
+    f64::from_bits(max2.into_iter().fold(0, u64::max))
 }
 
 /// One task's share of the first sweep: particles `first..` of the
@@ -387,7 +395,8 @@ mod tests {
         for close in [false, true] {
             let (mut a, mut b) = (moving(n), moving(n));
             let (mut pa, mut pb) = (Packed::default(), Packed::default());
-            let args = |p, packed| (p, 1.5e-5, g, &reference[..], packed);
+            let team = Team::alone();
+            let args = |p, packed| (p, 1.5e-5, g, &reference[..], packed, &team);
             let (ma, mb) = if close {
                 (
                     kick_drift_in::<true, false, false>(args(&mut a, &mut pa)),

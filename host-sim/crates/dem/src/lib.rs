@@ -36,6 +36,7 @@ pub mod particles;
 pub mod periodic;
 pub mod scaling;
 pub mod sink;
+mod team;
 pub mod walls;
 
 use nalgebra::Vector3;
@@ -330,7 +331,13 @@ impl State {
     /// sink's external forces. `packed_current`: the integrator has just
     /// packed the state and set the sums to the body force (else both are
     /// done here).
-    fn evaluate_forces(&mut self, params: &Params, sink: &mut impl Sink, packed_current: bool) {
+    fn evaluate_forces(
+        &mut self,
+        params: &Params,
+        sink: &mut impl Sink,
+        packed_current: bool,
+        team: &team::Team,
+    ) {
         if !packed_current {
             self.catch_up();
             self.particles.pack_into(&mut self.packed);
@@ -339,11 +346,10 @@ impl State {
         forces::pair_forces(
             params,
             &mut self.particles,
-            &mut self.neighbours,
-            &mut self.blocks,
-            &self.packed,
+            (&mut self.neighbours, &mut self.blocks),
+            (&self.packed, packed_current),
             &self.images,
-            packed_current,
+            team,
         );
         self.wall_contacts.cull(
             &params.walls,
@@ -356,6 +362,7 @@ impl State {
             &mut self.particles,
             &self.packed,
             &mut self.wall_contacts,
+            team,
         );
         self.wall_contacts
             .totals(&mut self.wall_force_n, &mut self.wall_normal_load_n);
@@ -406,6 +413,20 @@ pub fn advance(
     // (which left them current).
     state.catch_up();
     state.motion = Motion::Particles;
+    team::with_team(|team| advance_with(params, state, sink, steps, team))?;
+    sink.step_done(state);
+    Ok(())
+}
+
+/// [`advance`] by `steps` (at least one) with `team`, but for the final
+/// [`Sink::step_done`].
+fn advance_with(
+    params: &Params,
+    state: &mut State,
+    sink: &mut impl Sink,
+    steps: u64,
+    team: &team::Team,
+) -> Result<(), DemError> {
     // Whether the first sweep may take the motion from the packed rows
     // alone: nothing outside reads the particles until the end.
     let rows_only = !sink.adds_external_forces();
@@ -425,7 +446,7 @@ pub fn advance(
                 state.closing_kick(params.dt_s);
                 pending = false;
             }
-            state.evaluate_forces(params, sink, false);
+            state.evaluate_forces(params, sink, false, team);
             state.forces_ready = true;
         }
         let from_rows = rows_only && state.motion != Motion::Particles;
@@ -436,7 +457,7 @@ pub fn advance(
         let reference = &state.neighbours.reference_m;
         let (p, packed) = (&mut state.particles, &mut state.packed);
         let flags = (pending, from_rows);
-        let max2 = integrate::kick_drift(p, params.dt_s, body, reference, packed, flags);
+        let max2 = integrate::kick_drift(p, params.dt_s, body, reference, packed, flags, team);
         state.motion = if from_rows {
             Motion::Rows
         } else {
@@ -461,7 +482,7 @@ pub fn advance(
         }
         state.time_s += params.dt_s;
         // Nothing moved the particles since kick_drift packed them.
-        state.evaluate_forces(params, sink, true);
+        state.evaluate_forces(params, sink, true, team);
         state.forces_ready = true;
         state.step_count += 1;
         pending = left > 0;
@@ -469,6 +490,5 @@ pub fn advance(
             state.closing_kick(params.dt_s);
         }
     }
-    sink.step_done(state);
     Ok(())
 }
