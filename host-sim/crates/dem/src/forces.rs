@@ -11,7 +11,6 @@
 //! depend on the thread count.
 
 use nalgebra::Vector3;
-use rayon::prelude::*;
 
 use super::contact::{
     ContactForce, ContactGeometry, ContactModel, History, Lanes, Real, HISTORY_LEN, LANE_COUNT,
@@ -1035,6 +1034,7 @@ impl WallContacts {
         p: &Particles,
         list: &NeighbourList,
         skin_m: f64,
+        team: &Team,
     ) {
         let moved_little = |(w, then): (&Wall, &WallShape)| {
             w.shape.shift_from(then).is_some_and(|d| d < 0.5 * skin_m)
@@ -1051,17 +1051,19 @@ impl WallContacts {
             self.near.clear();
             self.near.resize(p.len(), u64::MAX);
         } else {
-            list.reference_m
-                .par_iter()
-                .zip(p.radius_m.par_iter())
-                .map(|(x, &r)| {
-                    walls
-                        .iter()
-                        .enumerate()
+            self.near.clear();
+            self.near.resize(p.len(), 0);
+            let pieces = (self.near.chunks_mut(GATHER_CHUNK))
+                .zip(list.reference_m.chunks(GATHER_CHUNK))
+                .zip(p.radius_m.chunks(GATHER_CHUNK))
+                .collect();
+            team.map(pieces, |_, ((near, x), r)| {
+                for ((near, x), &r) in near.iter_mut().zip(x).zip(r) {
+                    *near = (walls.iter().enumerate())
                         .filter(|(_, wall)| wall.clearance_m(x, r) < skin_m)
-                        .fold(0u64, |m, (w, _)| m | 1 << w)
-                })
-                .collect_into_vec(&mut self.near);
+                        .fold(0u64, |m, (w, _)| m | 1 << w);
+                }
+            });
         }
         // A particle neither near a wall nor touching one now cannot touch
         // one before the next build: the wall pass skips it.

@@ -265,7 +265,7 @@ impl State {
 
     /// Sizes the per-wall arrays for `walls` walls (resetting wall history
     /// when the count changed) and rebuilds a stale neighbour list.
-    fn prepare(&mut self, params: &Params) -> Result<(), DemError> {
+    fn prepare(&mut self, params: &Params, team: &team::Team) -> Result<(), DemError> {
         let n = self.particles.len();
         let walls = params.walls.len();
         let images = Images::new(&params.periodic);
@@ -282,7 +282,7 @@ impl State {
             self.forces_ready = false;
         }
         if self.neighbours.is_stale(n, params.skin_m) {
-            self.rebuild(params)?;
+            self.rebuild(params, team)?;
             self.forces_ready = false;
         }
         Ok(())
@@ -304,7 +304,7 @@ impl State {
         self.motion = Motion::Particles;
     }
 
-    fn rebuild(&mut self, params: &Params) -> Result<(), DemError> {
+    fn rebuild(&mut self, params: &Params, team: &team::Team) -> Result<(), DemError> {
         self.catch_up();
         // Back into the box along periodic axes (the separations are
         // minimum images, so nothing else changes). The rows keep the
@@ -318,11 +318,12 @@ impl State {
                 }
             }
         }
-        self.neighbours.build_periodic(
+        self.neighbours.build_with(
             &self.particles.position_m,
             &self.particles.radius_m,
             params.skin_m,
             &params.periodic,
+            team,
         )?;
         Ok(())
     }
@@ -356,6 +357,7 @@ impl State {
             &self.particles,
             &self.neighbours,
             params.skin_m,
+            team,
         );
         forces::wall_forces(
             params,
@@ -433,7 +435,7 @@ fn advance_with(
     // Whether the last step's closing half kick is still to be applied.
     let mut pending = false;
     for left in (0..steps).rev() {
-        if let Err(e) = state.prepare(params) {
+        if let Err(e) = state.prepare(params, team) {
             if pending {
                 state.closing_kick(params.dt_s);
             }
@@ -478,7 +480,7 @@ fn advance_with(
         }
         let half_skin = 0.5 * params.skin_m;
         if max2 > half_skin * half_skin {
-            state.rebuild(params)?;
+            state.rebuild(params, team)?;
         }
         state.time_s += params.dt_s;
         // Nothing moved the particles since kick_drift packed them.

@@ -7,10 +7,10 @@
 //! every pair still listed is carried over (matched by the particle pair).
 
 use nalgebra::Vector3;
-use rayon::prelude::*;
 
 use super::contact::History;
 use super::periodic::{check_fits, Images, PeriodicAxis};
+use super::team::{with_team, Team};
 use super::{split_lengths, DemError};
 
 /// Particles per parallel task when building.
@@ -97,15 +97,26 @@ impl NeighbourList {
         skin_m: f64,
         periodic: &[Option<PeriodicAxis>; 3],
     ) -> Result<(), DemError> {
+        with_team(|team| self.build_with(position_m, radius_m, skin_m, periodic, team))
+    }
+
+    /// [`NeighbourList::build_periodic`] on `team`.
+    pub(crate) fn build_with(
+        &mut self,
+        position_m: &[Vector3<f64>],
+        radius_m: &[f64],
+        skin_m: f64,
+        periodic: &[Option<PeriodicAxis>; 3],
+        team: &Team,
+    ) -> Result<(), DemError> {
         let n = position_m.len();
         let grid = Grid::new(position_m, radius_m, skin_m, periodic)?;
         let chunk_count = n.div_ceil(BUILD_CHUNK);
         let chunk_range = |c: usize| c * BUILD_CHUNK..((c + 1) * BUILD_CHUNK).min(n);
 
         // Pass 1: each chunk's partners, j ascending within each particle.
-        let found: Vec<(Vec<u32>, Vec<u32>)> = (0..chunk_count)
-            .into_par_iter()
-            .map(|c| {
+        let found: Vec<(Vec<u32>, Vec<u32>)> =
+            team.map((0..chunk_count).collect(), |_, c: usize| {
                 let range = chunk_range(c);
                 let mut counts = Vec::with_capacity(range.len());
                 let mut js = Vec::with_capacity(range.len() * 8);
@@ -116,8 +127,7 @@ impl NeighbourList {
                     counts.push((js.len() - first) as u32);
                 }
                 (counts, js)
-            })
-            .collect();
+            });
 
         // Pass 2: into the flat arrays, the old ones kept for the carry.
         let old_start = std::mem::take(&mut self.start);
@@ -139,42 +149,49 @@ impl NeighbourList {
         let mut open = refill(spare.open, total, 0);
         let pair_lens: Vec<usize> = found.iter().map(|(_, js)| js.len()).collect();
         let particle_lens: Vec<usize> = (0..chunk_count).map(|c| chunk_range(c).len()).collect();
-        (
-            found.par_iter(),
-            split_lengths(&mut start[1..], particle_lens.iter().copied()),
-            split_lengths(&mut pair_i, pair_lens.iter().copied()),
-            split_lengths(&mut pair_j, pair_lens.iter().copied()),
-            split_lengths(&mut history, pair_lens.iter().copied()),
-            split_lengths(&mut open, pair_lens.iter().copied()),
-        )
-            .into_par_iter()
-            .enumerate()
-            .for_each(|(c, ((counts, js), st, pi, pj, hist, op))| {
-                pj.copy_from_slice(js);
-                let mut k = 0usize;
-                for (q, (&count, end)) in counts.iter().zip(st.iter_mut()).enumerate() {
-                    let i = c * BUILD_CHUNK + q;
-                    let run = k..k + count as usize;
-                    k = run.end;
-                    *end = (offset[c] + k) as u32;
-                    pi[run.clone()].fill(i as u32);
-                    if !old_valid {
-                        continue;
+        let mut st = split_lengths(&mut start[1..], particle_lens.iter().copied()).into_iter();
+        let mut pi = split_lengths(&mut pair_i, pair_lens.iter().copied()).into_iter();
+        let mut pj = split_lengths(&mut pair_j, pair_lens.iter().copied()).into_iter();
+        let mut hist = split_lengths(&mut history, pair_lens.iter().copied()).into_iter();
+        let mut op = split_lengths(&mut open, pair_lens.iter().copied()).into_iter();
+        let pieces = (found.iter())
+            .map_while(|f| {
+                Some((
+                    f,
+                    st.next()?,
+                    pi.next()?,
+                    pj.next()?,
+                    hist.next()?,
+                    op.next()?,
+                ))
+            })
+            .collect();
+        team.map(pieces, |c, ((counts, js), st, pi, pj, hist, op)| {
+            pj.copy_from_slice(js);
+            let mut k = 0usize;
+            for (q, (&count, end)) in counts.iter().zip(st.iter_mut()).enumerate() {
+                let i = c * BUILD_CHUNK + q;
+                let run = k..k + count as usize;
+                k = run.end;
+                *end = (offset[c] + k) as u32;
+                pi[run.clone()].fill(i as u32);
+                if !old_valid {
+                    continue;
+                }
+                // Carry history: both runs are sorted by j.
+                let (mut o, b) = (old_start[i] as usize, old_start[i + 1] as usize);
+                for p in run {
+                    let j = pj[p];
+                    while o < b && old_j[o] < j {
+                        o += 1;
                     }
-                    // Carry history: both runs are sorted by j.
-                    let (mut o, b) = (old_start[i] as usize, old_start[i + 1] as usize);
-                    for p in run {
-                        let j = pj[p];
-                        while o < b && old_j[o] < j {
-                            o += 1;
-                        }
-                        if o < b && old_j[o] == j && old_open[o] != 0 {
-                            hist[p] = old_hist[o];
-                            op[p] = 1;
-                        }
+                    if o < b && old_j[o] == j && old_open[o] != 0 {
+                        hist[p] = old_hist[o];
+                        op[p] = 1;
                     }
                 }
-            });
+            }
+        });
         self.spare = Spare {
             start: old_start,
             pair_i: std::mem::replace(&mut self.pair_i, pair_i),
