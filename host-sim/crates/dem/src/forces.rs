@@ -5,8 +5,10 @@
 //! indices (one per worker, sized by the work they took before); a block's
 //! pairs are evaluated and summed by one task as it goes, four touching
 //! pairs at a time (SIMD). A pair that straddles two blocks is evaluated by
-//! both, from the same history (the later block's copy of it as the step
-//! began), each adding its own particle's share. Each particle so sums the
+//! both, each from its own copy of the same history (copied from the list
+//! when the blocks were split, then kept equal by evaluating the same pair
+//! from the same state), each adding its own particle's share. Each
+//! particle so sums the
 //! same terms in the same order whatever the blocks, and the results do not
 //! depend on the thread count.
 
@@ -318,8 +320,8 @@ pub(crate) struct Blocks {
     incoming_j: Vec<u32>,
     /// Their list indices.
     incoming_k: Vec<u32>,
-    /// Their histories and open flags as the step began (copied before the
-    /// blocks run: the block of the first particle updates the list's).
+    /// Their histories and open flags, the later block's own copy (the
+    /// block of the first particle updates the list's; both evolve alike).
     incoming_history: Vec<History>,
     incoming_open: Vec<u8>,
 }
@@ -413,19 +415,13 @@ impl Blocks {
             self.incoming_k[*slot] = k as u32;
             *slot += 1;
         }
+        // The histories as the list holds them now; from here on each
+        // block's pass keeps its copy equal to the list's, evaluating the
+        // same pairs from the same state in the same operations.
         self.incoming_history.clear();
-        self.incoming_history.resize(n_incoming, [0.0; HISTORY_LEN]);
+        (self.incoming_history).extend(self.incoming_k.iter().map(|&k| list.history[k as usize]));
         self.incoming_open.clear();
-        self.incoming_open.resize(n_incoming, 0);
-    }
-
-    /// Copies the incoming pairs' histories and open flags from `list`,
-    /// before the blocks change them.
-    fn copy_incoming(&mut self, list: &NeighbourList) {
-        for (n, &k) in self.incoming_k.iter().enumerate() {
-            self.incoming_history[n] = list.history[k as usize];
-            self.incoming_open[n] = list.open[k as usize];
-        }
+        (self.incoming_open).extend(self.incoming_k.iter().map(|&k| list.open[k as usize]));
     }
 
     /// Number of blocks.
@@ -569,8 +565,8 @@ macro_rules! dispatch {
 impl PairRun<'_> {
     /// The forces on block `lo..hi` (`f`, `t` from `lo`): body force, the
     /// pairs `incoming` from earlier blocks (to their second particle
-    /// only, from the histories as the step began: their first particle's
-    /// block updates the list's), then this run's pairs (to their second
+    /// only, from the block's own copy of their histories: their first
+    /// particle's block updates the list's), then this run's pairs (to their second
     /// particle only if it lies in the block).
     #[inline(always)]
     fn block(
@@ -693,7 +689,6 @@ pub(crate) fn pair_forces(
 ) {
     let simd = simd();
     blocks.split(list, team.workers() * BLOCKS_PER_WORKER);
-    blocks.copy_incoming(list);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
     let nb = blocks.count();

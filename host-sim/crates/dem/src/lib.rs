@@ -273,6 +273,9 @@ impl State {
             self.images = images;
             // New periods: the list's pairs and their images are stale.
             self.neighbours = NeighbourList::default();
+            // Its build count starts again: the split must not be taken
+            // for the old list's.
+            self.blocks = forces::Blocks::default();
             self.forces_ready = false;
         }
         if !self.wall_contacts.fits(n, walls) || self.wall_force_n.len() != walls {

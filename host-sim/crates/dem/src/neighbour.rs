@@ -51,11 +51,12 @@ struct Spare {
     open: Vec<u8>,
 }
 
-/// `v` emptied and refilled with `len` copies of `value`, in its own
-/// allocation.
-fn refill<T: Clone>(mut v: Vec<T>, len: usize, value: T) -> Vec<T> {
-    v.clear();
-    v.resize(len, value);
+/// `v` cut or grown to `len` in its own allocation, the elements it
+/// already had left as they were (the build overwrites every one, in its
+/// parallel pass rather than in a serial fill first).
+fn resized<T: Clone + Default>(mut v: Vec<T>, len: usize) -> Vec<T> {
+    v.truncate(len);
+    v.resize(len, T::default());
     v
 }
 
@@ -142,11 +143,12 @@ impl NeighbourList {
         }
         let total = offset[chunk_count];
         let spare = std::mem::take(&mut self.spare);
-        let mut start = refill(spare.start, n + 1, 0);
-        let mut pair_i = refill(spare.pair_i, total, 0);
-        let mut pair_j = refill(spare.pair_j, total, 0);
-        let mut history = refill(spare.history, total, History::default());
-        let mut open = refill(spare.open, total, 0);
+        let mut start = resized(spare.start, n + 1);
+        start[0] = 0;
+        let mut pair_i = resized(spare.pair_i, total);
+        let mut pair_j = resized(spare.pair_j, total);
+        let mut history = resized(spare.history, total);
+        let mut open = resized(spare.open, total);
         let pair_lens: Vec<usize> = found.iter().map(|(_, js)| js.len()).collect();
         let particle_lens: Vec<usize> = (0..chunk_count).map(|c| chunk_range(c).len()).collect();
         let mut st = split_lengths(&mut start[1..], particle_lens.iter().copied()).into_iter();
@@ -168,6 +170,8 @@ impl NeighbourList {
             .collect();
         team.map(pieces, |c, ((counts, js), st, pi, pj, hist, op)| {
             pj.copy_from_slice(js);
+            hist.fill(History::default());
+            op.fill(0);
             let mut k = 0usize;
             for (q, (&count, end)) in counts.iter().zip(st.iter_mut()).enumerate() {
                 let i = c * BUILD_CHUNK + q;

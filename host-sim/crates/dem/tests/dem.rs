@@ -466,7 +466,7 @@ fn submerged_settled_bed_walls_carry_its_buoyant_weight() {
 
 #[test]
 fn bit_identical_for_any_thread_count_and_instruction_set() {
-    // 1 thread: one block; 2 and 3 threads: 4 and 6 blocks, so pairs
+    // 1 thread: one block; 2 and 3 threads: 2 and 3 blocks, so pairs
     // straddle blocks; the baseline (SSE2) and the best (AVX2 here) copies
     // of the contact pass. The instruction set is process-wide, so the runs
     // go one after the other.
