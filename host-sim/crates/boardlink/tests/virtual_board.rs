@@ -2,6 +2,7 @@
 //! pseudo-terminal: the firmware's own tasks on one side, the host's link
 //! on the other, the serial stack between them.
 
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use boardlink::{expect_ack, Link};
@@ -154,27 +155,16 @@ fn a_recorded_run_and_a_fault_scenario() {
     let _board = one_board();
     let dir = tempfile::tempdir().unwrap();
     let rig = rig_file(dir.path());
-    let stop = std::sync::atomic::AtomicBool::new(false);
 
     // A healthy run of one cycle, recorded.
-    let (vb, mut link) = board();
-    link.connect().unwrap();
-    expect_ack(&mut link, HostCommand::Tare, 3000).unwrap();
     let out = dir.path().join("healthy");
-    let mut shown = 0;
-    let outcome = boardlink::run(
-        &mut link,
-        &boardlink::RunOptions {
-            cycles: 1,
-            depth_mm: 40.0,
-            rig: rig.clone(),
-            out: out.clone(),
-            run_id: "r".into(),
-        },
-        &stop,
-        &mut |_| shown += 1,
-    )
-    .unwrap();
+    let Cycle {
+        outcome,
+        shown,
+        vb,
+        link,
+        ..
+    } = cycle_on(None, &rig, &out);
     assert_eq!(
         (outcome.fault, outcome.cycles, outcome.partial),
         (None, 1, false)
@@ -209,29 +199,12 @@ fn a_recorded_run_and_a_fault_scenario() {
 
     // The sensor drops off the bus mid-expansion: the board latches
     // SensorBus, the host reports it and keeps the data.
-    let scenario = emulator::named("sensor_dropout").unwrap();
-    let vb = VirtualBoard::start(&Options {
-        scenario: Some(scenario),
-        ..Options::default()
-    })
-    .unwrap();
-    let mut link = Link::open(vb.port()).unwrap();
-    link.connect().unwrap();
-    expect_ack(&mut link, HostCommand::Tare, 3000).unwrap();
-    let out = dir.path().join("dropout");
-    let outcome = boardlink::run(
-        &mut link,
-        &boardlink::RunOptions {
-            cycles: 1,
-            depth_mm: 40.0,
-            rig,
-            out: out.clone(),
-            run_id: "r".into(),
-        },
-        &stop,
-        &mut |_| {},
-    )
-    .unwrap();
+    let Cycle {
+        outcome,
+        vb,
+        mut link,
+        ..
+    } = cycle_on(Some("sensor_dropout"), &rig, &dir.path().join("dropout"));
     assert_eq!(outcome.fault, Some(Fault::SensorBus));
     assert!(vb.outputs_safe());
     assert!(rig::Experiment::read(&outcome.folder).is_ok());
@@ -239,51 +212,77 @@ fn a_recorded_run_and_a_fault_scenario() {
     assert_eq!(info.fault, Some(Fault::SensorBus));
 }
 
-/// One cycle of `scenario` on a virtual board, recorded by the host tool:
-/// its outcome and the bus recoveries the sensor task made. The board's
-/// tasks run in real time, and a host that stalls the process for more than
-/// the control loop's overrun limit (30 ms; a shared VM does) trips the
-/// firmware's own ControlOverrun, as it would on a board: no scenario here
-/// can cause one, so such a run is retried, twice at most.
-fn scenario_run(name: &str) -> (boardlink::RunOutcome, u64, VirtualBoard) {
+/// One recorded cycle on a virtual board.
+struct Cycle {
+    outcome: boardlink::RunOutcome,
+    /// The bus recoveries the board's sensor task made.
+    recoveries: u64,
+    /// The samples the host tool showed as they came.
+    shown: usize,
+    vb: VirtualBoard,
+    link: Link,
+}
+
+/// One cycle on a fresh virtual board running `scenario` (`None`: a
+/// healthy plant), recorded by the host tool under `out` with `rig`. The
+/// board's tasks run in real time, and a host that stalls the process for
+/// more than the control loop's overrun limit (30 ms; a shared VM does)
+/// trips the firmware's own ControlOverrun, as it would on a board: no
+/// scenario here can cause one, so such a run is retried, twice at most.
+fn cycle_on(scenario: Option<&str>, rig: &Path, out: &Path) -> Cycle {
     let mut tries = 1;
     loop {
-        let (outcome, recoveries, vb) = scenario_once(name);
-        if outcome.fault != Some(Fault::ControlOverrun) || tries == 3 {
-            return (outcome, recoveries, vb);
+        let cycle = cycle_once(scenario, rig, out);
+        if cycle.outcome.fault != Some(Fault::ControlOverrun) || tries == 3 {
+            return cycle;
         }
-        eprintln!("{name}: ControlOverrun (the host stalled the board's tasks); again");
-        drop(vb);
+        eprintln!("{scenario:?}: ControlOverrun (the host stalled the board's tasks); again");
+        drop(cycle);
+        std::fs::remove_dir_all(out).ok();
         tries += 1;
     }
 }
 
-/// One try of [`scenario_run`].
-fn scenario_once(name: &str) -> (boardlink::RunOutcome, u64, VirtualBoard) {
-    let dir = tempfile::tempdir().unwrap();
+/// One try of [`cycle_on`].
+fn cycle_once(scenario: Option<&str>, rig: &Path, out: &Path) -> Cycle {
     let vb = VirtualBoard::start(&Options {
-        scenario: Some(emulator::named(name).unwrap()),
+        scenario: scenario.map(|name| emulator::named(name).unwrap()),
         ..Options::default()
     })
     .unwrap();
     let mut link = Link::open(vb.port()).unwrap();
     link.connect().unwrap();
     expect_ack(&mut link, HostCommand::Tare, 3000).unwrap();
+    let mut shown = 0;
     let outcome = boardlink::run(
         &mut link,
         &boardlink::RunOptions {
             cycles: 1,
             depth_mm: 40.0,
-            rig: rig_file(dir.path()),
-            out: dir.path().join(name),
+            rig: rig.to_path_buf(),
+            out: out.to_path_buf(),
             run_id: "r".into(),
         },
         &std::sync::atomic::AtomicBool::new(false),
-        &mut |_| {},
+        &mut |_| shown += 1,
     )
     .unwrap();
     let recoveries = vb.bus_recoveries();
-    (outcome, recoveries, vb)
+    Cycle {
+        outcome,
+        recoveries,
+        shown,
+        vb,
+        link,
+    }
+}
+
+/// One cycle of scenario `name` (see [`cycle_on`]): its outcome, the bus
+/// recoveries and the board.
+fn scenario_run(name: &str) -> (boardlink::RunOutcome, u64, VirtualBoard) {
+    let dir = tempfile::tempdir().unwrap();
+    let c = cycle_on(Some(name), &rig_file(dir.path()), &dir.path().join(name));
+    (c.outcome, c.recoveries, c.vb)
 }
 
 #[test]
