@@ -8,9 +8,8 @@
 //! both, each from its own copy of the same history (copied from the list
 //! when the blocks were split, then kept equal by evaluating the same pair
 //! from the same state), each adding its own particle's share. Each
-//! particle so sums the
-//! same terms in the same order whatever the blocks, and the results do not
-//! depend on the thread count.
+//! particle so sums the same terms in the same order whatever the blocks,
+//! and the results do not depend on the thread count.
 
 use nalgebra::Vector3;
 
@@ -566,8 +565,8 @@ impl PairRun<'_> {
     /// The forces on block `lo..hi` (`f`, `t` from `lo`): body force, the
     /// pairs `incoming` from earlier blocks (to their second particle
     /// only, from the block's own copy of their histories: their first
-    /// particle's block updates the list's), then this run's pairs (to their second
-    /// particle only if it lies in the block).
+    /// particle's block updates the list's), then this run's pairs (to
+    /// their second particle only if it lies in the block).
     #[inline(always)]
     fn block(
         &mut self,
