@@ -7,9 +7,17 @@ use rayon::prelude::*;
 use super::forces::{far, simd, Simd};
 use super::particles::{pack_one, Motion, Packed, Particles, Sphere};
 use super::team::Team;
+use super::wall_contacts::{SweepWalls, WallContacts, WALL_CHUNK};
+use super::Params;
 
-/// Particles per parallel task.
+/// Particles per parallel task: whole wall chunks, whose contacts a task
+/// evaluates after its drift.
 const CHUNK: usize = 1024;
+const _: () = assert!(CHUNK.is_multiple_of(WALL_CHUNK));
+
+/// The wall contacts for [`kick_drift`], and whether it evaluates them
+/// (it adds pending ones in any case).
+pub(crate) type Walls<'a> = (&'a Params, &'a mut WallContacts, bool);
 
 /// First half: v += dt/2 F/m, ω += dt/2 τ/I, x += dt v, writing the new
 /// state into `packed` (resized to fit) for the force pass that follows.
@@ -23,20 +31,25 @@ const CHUNK: usize = 1024;
 /// hold the current positions, velocities and spins) and written there
 /// alone, `p`'s own positions, velocities and spins left behind for
 /// [`Packed::unpack_into`]; else it is read from `p` and written to both.
+/// Pending wall contributions are added to the sums before they are read;
+/// with `walls`' flag, each task then evaluates its particles' wall
+/// contacts from the rows it has just written, to be added in the next
+/// sweep ([`WallContacts::sweep_pieces`]).
 /// Returns the largest squared displacement from `reference_m` (m²), for
 /// the Verlet-list check: NaN if any position is NaN.
 pub(crate) fn kick_drift(
     p: &mut Particles,
-    dt_s: f64,
-    body_accel_m_s2: Vector3<f64>,
+    (dt_s, body_accel_m_s2): (f64, Vector3<f64>),
     reference_m: &[Vector3<f64>],
     packed: &mut Packed,
+    (params, contacts, evaluate): Walls,
     (close_previous, from_rows): (bool, bool),
     team: &Team,
 ) -> f64 {
     // Rows that are read first are not streamed past the caches.
     let stream = !from_rows && far(p.len());
-    let args = (p, dt_s, body_accel_m_s2, reference_m, packed, team);
+    let walls = contacts.sweep_pieces(params, CHUNK, evaluate);
+    let args = (p, dt_s, body_accel_m_s2, reference_m, packed, walls, team);
     match (close_previous, stream, from_rows) {
         (true, true, _) => kick_drift_in::<true, true, false>(args),
         (false, true, _) => kick_drift_in::<false, true, false>(args),
@@ -54,6 +67,7 @@ type KickDriftArgs<'a, 't, 's> = (
     Vector3<f64>,
     &'a [Vector3<f64>],
     &'a mut Packed,
+    Vec<SweepWalls<'a>>,
     &'a Team<'t, 's>,
 );
 
@@ -62,7 +76,7 @@ type KickDriftArgs<'a, 't, 's> = (
 /// beyond the caches: see [`store_rows`]) and the motion taken from the
 /// rows (`FROM_ROWS`), so that none pays a branch per particle.
 fn kick_drift_in<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
-    (p, dt_s, body, reference_m, packed, team): KickDriftArgs,
+    (p, dt_s, body, reference_m, packed, walls, team): KickDriftArgs,
 ) -> f64 {
     let simd = simd();
     packed.resize(p.len());
@@ -77,6 +91,7 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
     let mut w = p.angular_velocity_rad_s.chunks_mut(CHUNK);
     let mut f = p.force_n.chunks_mut(CHUNK);
     let mut t = p.torque_n_m.chunks_mut(CHUNK);
+    let mut walls = walls.into_iter();
     for (c, x) in p.position_m.chunks_mut(CHUNK).enumerate() {
         let pieces = (v.next(), w.next(), f.next(), t.next(), im.next(), ii.next());
         let rows = (x0.next(), sphere.next(), motion.next());
@@ -86,28 +101,39 @@ fn kick_drift_in<const CLOSE: bool, const STREAM: bool, const FROM_ROWS: bool>(
         let (Some(x0), Some(sphere), Some(motion)) = rows else {
             break;
         };
-        chunks.push(Chunk {
-            first: c * CHUNK,
-            x,
-            v,
-            w,
-            f,
-            t,
-            im,
-            ii,
-            x0,
-            sphere,
-            motion,
-        });
+        let walls = walls.next();
+        chunks.push((
+            Chunk {
+                first: c * CHUNK,
+                x,
+                v,
+                w,
+                f,
+                t,
+                im,
+                ii,
+                x0,
+                sphere,
+                motion,
+            },
+            walls,
+        ));
     }
-    let max2 = team.map(chunks, |_, chunk| {
-        let args = (chunk, r, m, dt_s, body);
-        #[cfg(target_arch = "x86_64")]
-        if simd == Simd::Avx2 {
-            // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
-            return unsafe { sweep_avx2::<CLOSE, STREAM, FROM_ROWS>(args) };
+    let max2 = team.map(chunks, |_, (mut chunk, walls)| {
+        if let Some(walls) = &walls {
+            walls.add_pending(chunk.f, chunk.t);
         }
-        sweep::<CLOSE, STREAM, FROM_ROWS>(args)
+        let args = (chunk.reborrow(), r, m, dt_s, body);
+        let max2 = match simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
+            Simd::Avx2 => unsafe { sweep_avx2::<CLOSE, STREAM, FROM_ROWS>(args) },
+            _ => sweep::<CLOSE, STREAM, FROM_ROWS>(args),
+        };
+        if let Some(mut walls) = walls {
+            walls.evaluate(chunk.sphere, chunk.motion);
+        }
+        max2
     });
     f64::from_bits(max2.into_iter().fold(0, u64::max))
 }
@@ -126,6 +152,25 @@ struct Chunk<'a> {
     x0: &'a [Vector3<f64>],
     sphere: &'a mut [Sphere],
     motion: &'a mut [Motion],
+}
+
+impl Chunk<'_> {
+    /// The same chunk, borrowed again.
+    fn reborrow(&mut self) -> Chunk<'_> {
+        Chunk {
+            first: self.first,
+            x: self.x,
+            v: self.v,
+            w: self.w,
+            f: self.f,
+            t: self.t,
+            im: self.im,
+            ii: self.ii,
+            x0: self.x0,
+            sphere: self.sphere,
+            motion: self.motion,
+        }
+    }
 }
 
 /// The arguments of [`sweep`]: a chunk, every particle's radius and mass,
@@ -396,7 +441,7 @@ mod tests {
             let (mut a, mut b) = (moving(n), moving(n));
             let (mut pa, mut pb) = (Packed::default(), Packed::default());
             let team = Team::alone();
-            let args = |p, packed| (p, 1.5e-5, g, &reference[..], packed, &team);
+            let args = |p, packed| (p, 1.5e-5, g, &reference[..], packed, Vec::new(), &team);
             let (ma, mb) = if close {
                 (
                     kick_drift_in::<true, false, false>(args(&mut a, &mut pa)),

@@ -37,6 +37,7 @@ pub mod periodic;
 pub mod scaling;
 pub mod sink;
 mod team;
+mod wall_contacts;
 pub mod walls;
 
 use nalgebra::Vector3;
@@ -174,7 +175,7 @@ pub struct State {
     pub step_count: u64,
     neighbours: NeighbourList,
     blocks: forces::Blocks,
-    wall_contacts: forces::WallContacts,
+    wall_contacts: wall_contacts::WallContacts,
     wall_force_n: Vec<Vector3<f64>>,
     wall_normal_load_n: Vec<f64>,
     forces_ready: bool,
@@ -211,7 +212,7 @@ impl State {
             step_count: 0,
             neighbours: NeighbourList::default(),
             blocks: forces::Blocks::default(),
-            wall_contacts: forces::WallContacts::default(),
+            wall_contacts: wall_contacts::WallContacts::default(),
             wall_force_n: Vec::new(),
             wall_normal_load_n: Vec::new(),
             forces_ready: false,
@@ -303,6 +304,8 @@ impl State {
     /// The closing half kick, on `particles` (brought up to date first).
     fn closing_kick(&mut self, dt_s: f64) {
         self.catch_up();
+        let p = &mut self.particles;
+        self.wall_contacts.settle(&mut p.force_n, &mut p.torque_n_m);
         integrate::kick(&mut self.particles, dt_s);
         self.motion = Motion::Particles;
     }
@@ -334,12 +337,13 @@ impl State {
     /// Contact, wall and body forces at the current positions, then the
     /// sink's external forces. `packed_current`: the integrator has just
     /// packed the state and set the sums to the body force (else both are
-    /// done here).
+    /// done here); `walls_swept`: it has evaluated the wall contacts too,
+    /// to be added in the next sweep.
     fn evaluate_forces(
         &mut self,
         params: &Params,
         sink: &mut impl Sink,
-        packed_current: bool,
+        (packed_current, walls_swept): (bool, bool),
         team: &team::Team,
     ) {
         if !packed_current {
@@ -355,20 +359,24 @@ impl State {
             &self.images,
             team,
         );
-        self.wall_contacts.cull(
-            &params.walls,
-            &self.particles,
-            &self.neighbours,
-            params.skin_m,
-            team,
-        );
-        forces::wall_forces(
-            params,
-            &mut self.particles,
-            &self.packed,
-            &mut self.wall_contacts,
-            team,
-        );
+        if walls_swept {
+            self.wall_contacts.commit_sweep();
+        } else {
+            self.wall_contacts.cull(
+                &params.walls,
+                &self.particles,
+                &self.neighbours,
+                params.skin_m,
+                team,
+            );
+            wall_contacts::wall_forces(
+                params,
+                &mut self.particles,
+                &self.packed,
+                &mut self.wall_contacts,
+                team,
+            );
+        }
         self.wall_contacts
             .totals(&mut self.wall_force_n, &mut self.wall_normal_load_n);
         if sink.adds_external_forces() {
@@ -435,6 +443,10 @@ fn advance_with(
     // Whether the first sweep may take the motion from the packed rows
     // alone: nothing outside reads the particles until the end.
     let rows_only = !sink.adds_external_forces();
+    // Whether the first sweep evaluates the wall contacts, leaving them to
+    // be added in the next: only where nothing else adds forces after
+    // them (the sink's would come first).
+    let sweep_walls = rows_only && !params.walls.is_empty();
     // Whether the last step's closing half kick is still to be applied.
     let mut pending = false;
     for left in (0..steps).rev() {
@@ -451,18 +463,31 @@ fn advance_with(
                 state.closing_kick(params.dt_s);
                 pending = false;
             }
-            state.evaluate_forces(params, sink, false, team);
+            state.evaluate_forces(params, sink, (false, false), team);
             state.forces_ready = true;
         }
         let from_rows = rows_only && state.motion != Motion::Particles;
         if !from_rows {
             state.catch_up();
         }
+        if sweep_walls {
+            // Culled for this list and these walls before the sweep uses
+            // the entries (a no-op but after a build or a wall's move).
+            state.wall_contacts.cull(
+                &params.walls,
+                &state.particles,
+                &state.neighbours,
+                params.skin_m,
+                team,
+            );
+        }
         let body = params.gravity_m_s2 * params.buoyancy_factor();
         let reference = &state.neighbours.reference_m;
         let (p, packed) = (&mut state.particles, &mut state.packed);
         let flags = (pending, from_rows);
-        let max2 = integrate::kick_drift(p, params.dt_s, body, reference, packed, flags, team);
+        let walls = (params, &mut state.wall_contacts, sweep_walls);
+        let step = (params.dt_s, body);
+        let max2 = integrate::kick_drift(p, step, reference, packed, walls, flags, team);
         state.motion = if from_rows {
             Motion::Rows
         } else {
@@ -482,12 +507,16 @@ fn advance_with(
             return Err(DemError::NonFinite { particle: bad });
         }
         let half_skin = 0.5 * params.skin_m;
+        // A rebuilt list may have new wall candidates: the sweep's wall
+        // contacts are then evaluated again, after the pair pass.
+        let mut walls_swept = sweep_walls;
         if max2 > half_skin * half_skin {
+            walls_swept = false;
             state.rebuild(params, team)?;
         }
         state.time_s += params.dt_s;
         // Nothing moved the particles since kick_drift packed them.
-        state.evaluate_forces(params, sink, true, team);
+        state.evaluate_forces(params, sink, (true, walls_swept), team);
         state.forces_ready = true;
         state.step_count += 1;
         pending = left > 0;
