@@ -90,7 +90,7 @@ impl WallContacts {
     }
 
     /// Empties every contact and sizes the arrays for `n` particles and
-    /// `walls` walls; the first cull keeps every particle on every wall.
+    /// `walls` walls.
     pub(crate) fn reset(&mut self, n: usize, walls: usize) {
         *self = WallContacts {
             size: (n, walls),
@@ -151,11 +151,11 @@ impl WallContacts {
         }
         let wall_count = walls.len();
         let chunk_count = chunks(n);
-        // The walls each particle touched: all of them before the first
-        // evaluation (no history tells).
+        // The walls each particle touched at the last evaluation (none
+        // before the first: a particle touching a wall now is near it).
         let carried = self.start.len() == chunk_count * wall_count + 1;
         self.open.clear();
-        self.open.resize(n, if carried { 0 } else { u64::MAX });
+        self.open.resize(n, 0);
         if carried {
             for c in 0..chunk_count {
                 for w in 0..wall_count {
