@@ -484,6 +484,19 @@ impl Spans {
 mod tests {
     use super::*;
 
+    /// Every pair (i, j > i) of `x` closer than `range_m` (m), in order.
+    fn brute_force_pairs(x: &[Vector3<f64>], range_m: f64) -> Vec<(u32, u32)> {
+        let mut pairs = Vec::new();
+        for i in 0..x.len() {
+            for j in i + 1..x.len() {
+                if (x[i] - x[j]).norm() < range_m {
+                    pairs.push((i as u32, j as u32));
+                }
+            }
+        }
+        pairs
+    }
+
     #[test]
     fn finds_the_same_pairs_as_brute_force() {
         // An irregular cloud of three build chunks, the last one partial.
@@ -501,14 +514,7 @@ mod tests {
         let r = vec![1e-3; x.len()];
         let mut list = NeighbourList::default();
         list.build(&x, &r, 2e-4).unwrap();
-        let mut want = Vec::new();
-        for i in 0..x.len() {
-            for j in i + 1..x.len() {
-                if (x[i] - x[j]).norm() < 2.2e-3 {
-                    want.push((i as u32, j as u32));
-                }
-            }
-        }
+        let want = brute_force_pairs(&x, 2.2e-3);
         let got: Vec<(u32, u32)> = list
             .pair_i
             .iter()
@@ -553,14 +559,7 @@ mod tests {
         let radius = vec![1e-3; x.len()];
         let mut list = NeighbourList::default();
         list.build(&x, &radius, 2e-4).unwrap();
-        let mut want = Vec::new();
-        for i in 0..x.len() {
-            for j in i + 1..x.len() {
-                if (x[i] - x[j]).norm() < 2.2e-3 {
-                    want.push((i as u32, j as u32));
-                }
-            }
-        }
+        let want = brute_force_pairs(&x, 2.2e-3);
         let got: Vec<(u32, u32)> = (list.pair_i.iter().copied())
             .zip(list.pair_j.iter().copied())
             .collect();
