@@ -334,6 +334,13 @@ impl State {
         Ok(())
     }
 
+    /// Culls the wall contacts for the current list and walls (a no-op
+    /// unless the list was rebuilt or a wall moved since the last cull).
+    fn cull_walls(&mut self, params: &Params, team: &team::Team) {
+        let (p, list) = (&self.particles, &self.neighbours);
+        (self.wall_contacts).cull(&params.walls, p, list, params.skin_m, team);
+    }
+
     /// Contact, wall and body forces at the current positions, then the
     /// sink's external forces. `packed_current`: the integrator has just
     /// packed the state and set the sums to the body force (else both are
@@ -362,13 +369,7 @@ impl State {
         if walls_swept {
             self.wall_contacts.commit_sweep();
         } else {
-            self.wall_contacts.cull(
-                &params.walls,
-                &self.particles,
-                &self.neighbours,
-                params.skin_m,
-                team,
-            );
+            self.cull_walls(params, team);
             wall_contacts::wall_forces(
                 params,
                 &mut self.particles,
@@ -473,13 +474,7 @@ fn advance_with(
         if sweep_walls {
             // Culled for this list and these walls before the sweep uses
             // the entries (a no-op but after a build or a wall's move).
-            state.wall_contacts.cull(
-                &params.walls,
-                &state.particles,
-                &state.neighbours,
-                params.skin_m,
-                team,
-            );
+            state.cull_walls(params, team);
         }
         let body = params.gravity_m_s2 * params.buoyancy_factor();
         let reference = &state.neighbours.reference_m;

@@ -435,8 +435,8 @@ impl Grid {
     ) {
         // Every candidate is written, the count advances only for the kept
         // ones: no branch on the (unpredictable) test. Room for all of
-        // them is made once per particle (once per row, the zero fill's
-        // calls cost a third of the scan).
+        // them is made once per particle, not once per row (nine zero
+        // fills and `memset` calls a particle).
         let spans = &spans.span[..spans.len];
         let total: usize = spans.iter().map(|&(a, b)| b - a).sum();
         let first = out.len();

@@ -237,12 +237,8 @@ impl WallContacts {
             .zip(t.chunks_mut(WALL_CHUNK))
             .enumerate()
         {
-            let es = self.start[c * walls]..self.start[(c + 1) * walls];
-            let entries = Entries {
-                lo: c * WALL_CHUNK,
-                particle: &self.particle[es.clone()],
-                start: &self.start[c * walls..=(c + 1) * walls],
-            };
+            let (entries, es) =
+                Entries::chunk(&self.particle, &self.start, walls, c, c * WALL_CHUNK);
             entries.add(
                 &self.touching[es.clone()],
                 &self.force_n[es.clone()],
@@ -347,7 +343,28 @@ struct Entries<'a> {
     start: &'a [usize],
 }
 
-impl Entries<'_> {
+impl<'a> Entries<'a> {
+    /// Wall chunk c of the entries `particle` of whole chunks whose walls'
+    /// entries start at `start` (`walls` a chunk, offsets counted from
+    /// `start[0]`), its first particle `lo`; with the range of its entries
+    /// in `particle`.
+    fn chunk(
+        particle: &'a [u32],
+        start: &'a [usize],
+        walls: usize,
+        c: usize,
+        lo: usize,
+    ) -> (Self, Range<usize>) {
+        let starts = &start[c * walls..=(c + 1) * walls];
+        let es = starts[0] - start[0]..starts[walls] - start[0];
+        let entries = Entries {
+            lo,
+            particle: &particle[es.clone()],
+            start: starts,
+        };
+        (entries, es)
+    }
+
     /// Wall w's entries (indices into the chunk's).
     fn of(&self, w: usize) -> std::ops::Range<usize> {
         self.start[w] - self.start[0]..self.start[w + 1] - self.start[0]
@@ -565,22 +582,17 @@ pub(crate) struct SweepWalls<'a> {
     out: WallOut<'a>,
 }
 
-impl SweepWalls<'_> {
+impl<'a> SweepWalls<'a> {
     /// Number of the task's wall chunks.
     fn chunk_count(&self) -> usize {
         (self.start.len() - 1) / self.params.walls.len().max(1)
     }
 
-    /// The task's wall chunk c: its first particle's offset in the task,
-    /// its entries' range among the task's, the range of its walls' start
-    /// offsets in `start` and that of its partial sums.
-    fn chunk_at(&self, c: usize) -> (usize, Range<usize>, Range<usize>, Range<usize>) {
-        let walls = self.params.walls.len();
-        let stride = walls.max(1);
-        let base = self.start[0];
-        let es = self.start[c * walls] - base..self.start[(c + 1) * walls] - base;
-        let ps = c * stride..(c + 1) * stride;
-        (c * WALL_CHUNK, es, c * walls..(c + 1) * walls + 1, ps)
+    /// The task's wall chunk c (its first particle `c * WALL_CHUNK` into
+    /// the task's), with the range of its entries among the task's.
+    fn chunk(&self, c: usize) -> (Entries<'a>, Range<usize>) {
+        let lo = (self.first_chunk + c) * WALL_CHUNK;
+        Entries::chunk(self.particle, self.start, self.params.walls.len(), c, lo)
     }
 
     /// Adds the pending contributions of the task's particles, whose sums
@@ -590,13 +602,9 @@ impl SweepWalls<'_> {
             return;
         }
         for c in 0..self.chunk_count() {
-            let (from, es, starts, _) = self.chunk_at(c);
+            let (entries, es) = self.chunk(c);
+            let from = c * WALL_CHUNK;
             let to = (from + WALL_CHUNK).min(f.len());
-            let entries = Entries {
-                lo: self.first_chunk * WALL_CHUNK + from,
-                particle: &self.particle[es.clone()],
-                start: &self.start[starts],
-            };
             let (fe, te) = (&self.out.f[es.clone()], &self.out.t[es.clone()]);
             let (f, t) = (&mut f[from..to], &mut t[from..to]);
             entries.add(&self.touching[es], fe, te, f, t);
@@ -611,17 +619,15 @@ impl SweepWalls<'_> {
             return;
         }
         let simd = simd();
-        let lo = self.first_chunk * WALL_CHUNK;
+        let stride = self.params.walls.len().max(1);
         for c in 0..self.chunk_count() {
-            let (from, es, starts, ps) = self.chunk_at(c);
+            let (entries, es) = self.chunk(c);
+            let from = c * WALL_CHUNK;
             let to = (from + WALL_CHUNK).min(sphere.len());
+            let ps = c * stride..(c + 1) * stride;
             let chunk = WallChunk {
                 params: self.params,
-                entries: Entries {
-                    lo: lo + from,
-                    particle: &self.particle[es.clone()],
-                    start: &self.start[starts],
-                },
+                entries,
                 history: &self.history[es.clone()],
                 sphere: &sphere[from..to],
                 motion: &motion[from..to],
@@ -679,15 +685,11 @@ pub(crate) fn wall_forces(
         .collect();
     let (particle, start, current) = (&walls.particle, &walls.start, &walls.history);
     team.map(pieces, |c, out| {
-        let es = entries_of(c);
+        let (entries, es) = Entries::chunk(particle, start, wall_count, c, c * WALL_CHUNK);
         let rows = c * WALL_CHUNK..((c + 1) * WALL_CHUNK).min(n);
         let chunk = WallChunk {
             params,
-            entries: Entries {
-                lo: c * WALL_CHUNK,
-                particle: &particle[es.clone()],
-                start: &start[c * wall_count..=(c + 1) * wall_count],
-            },
+            entries,
             history: &current[es],
             sphere: &packed.sphere[rows.clone()],
             motion: &packed.motion[rows],
