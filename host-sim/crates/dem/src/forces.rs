@@ -1,15 +1,14 @@
 //! Force evaluation, particle by particle in a fixed order: body force,
 //! then each listed pair in ascending pair order (the pairs where it is the
 //! second particle come first: their first particle is lower), then its
-//! wall contacts. The particles are split into blocks of consecutive
-//! indices (one per worker, sized by the work they took before); a block's
-//! pairs are evaluated and summed by one task as it goes, four touching
-//! pairs at a time (SIMD). A pair that straddles two blocks is evaluated by
-//! both, each from its own copy of the same history (copied from the list
-//! when the blocks were split, then kept equal by evaluating the same pair
-//! from the same state), each adding its own particle's share. Each
-//! particle so sums the same terms in the same order whatever the blocks,
-//! and the results do not depend on the thread count.
+//! wall contacts. The workers take the particles in runs of consecutive
+//! indices, split between them as the step goes ([`crate::runs`]); a run's
+//! pairs are evaluated and summed as it goes, four touching pairs at a time
+//! (SIMD). A pair that crosses into a run that another split off is
+//! evaluated by both, the later from a copy of its history taken before
+//! the earlier changed it, each adding its own particle's share. Each
+//! particle so sums the same terms in the same order whatever the runs,
+//! and the results do not depend on the thread count or the timing.
 
 use nalgebra::Vector3;
 
@@ -19,8 +18,10 @@ use super::contact::{
 use super::neighbour::NeighbourList;
 use super::particles::{Packed, Particles, Sphere};
 use super::periodic::Images;
+use super::runs::{Runs, Shares, Taken, NONE_RUN, UNIT};
 use super::team::Team;
-use super::{split_lengths, Params};
+use super::Params;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Pairs gathered and evaluated together (sized for the L1 cache).
 const PAIR_CHUNK: usize = 256;
@@ -42,12 +43,9 @@ const FAR_FROM: usize = 100_000;
 pub(crate) fn far(n: usize) -> bool {
     n >= FAR_FROM
 }
-/// Blocks per worker: one, so that as few pairs as possible straddle two
-/// blocks (each is evaluated by both); the measured times even out what the
-/// work estimate misses ([`Blocks::split`]).
-const BLOCKS_PER_WORKER: usize = 1;
 /// Cost of a touching pair in the pass, in listed pairs apart (measured:
-/// ≈ 25 ns against ≈ 5 ns); only the first split of a run relies on it.
+/// ≈ 25 ns against ≈ 5 ns); only where the workers' first runs start
+/// relies on it.
 const TOUCHING_WEIGHT: f64 = 5.0;
 
 /// Asks the cache for the line that holds the start of `rows[k]` (a
@@ -290,162 +288,106 @@ pub(crate) mod pass_parts {
     }
 }
 
-/// The split of the particles into blocks for one list build, and the
-/// pairs that straddle two blocks.
+/// How the pass shares the particles among workers: the work estimate of
+/// the list's particles, how far its pairs reach, and each worker's share
+/// learnt from the steps before.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct Blocks {
-    /// The list build and block count this split was made for.
-    made_for: (u64, usize),
-    /// Block b holds particles `first[b]..first[b + 1]`.
-    first: Vec<usize>,
-    /// Estimated work of each block at the split (listed pairs, touching
-    /// ones weighted, scaled by the last split's measured cost rates).
+pub(crate) struct Schedule {
+    /// The list build the estimate was made for.
+    made_for: Option<u64>,
+    /// Cumulative estimated work of particles 0..i (len n + 1): listed
+    /// pairs, touching ones weighted by [`TOUCHING_WEIGHT`].
     work: Vec<f64>,
-    /// Wall time each block's task took since the split (ns).
-    spent_ns: Vec<u64>,
-    /// Each particle's cost per unit of estimated work, as learnt from the
-    /// blocks' times (1 until timed).
-    rate: Vec<f64>,
-    /// `incoming_start[b]..incoming_start[b + 1]`: the pairs whose second
-    /// particle lies in block b and whose first lies in an earlier one, in
-    /// pair order, as indices into the `incoming_*` rows below.
-    incoming_start: Vec<usize>,
-    /// Their first and second particles.
-    incoming_i: Vec<u32>,
-    incoming_j: Vec<u32>,
-    /// Their list indices.
-    incoming_k: Vec<u32>,
-    /// Their histories and open flags, the later block's own copy (the
-    /// block of the first particle updates the list's; both evolve alike).
-    incoming_history: Vec<History>,
-    incoming_open: Vec<u8>,
+    /// Largest j − i over the listed pairs (i, j).
+    span: usize,
+    /// Where each worker's first run starts.
+    shares: Shares,
 }
 
-impl Blocks {
-    /// Splits the particles of `list` into `count` blocks of about equal
-    /// work, unless already split so for this build. A particle's work is
-    /// its listed pairs, touching ones weighted by [`TOUCHING_WEIGHT`],
-    /// times its learnt rate: at each split the rates of a block's
-    /// particles are scaled by the square root of how long the block took
-    /// since the last split against its estimate (relative to the mean), so
-    /// a block that ran long gives up particles until the times agree.
-    /// Timing only moves the split, and the forces do not depend on it: the
-    /// results stay the same bits.
-    fn split(&mut self, list: &NeighbourList, count: usize) {
+impl Schedule {
+    /// Estimates the work and the reach of `list`'s pairs, unless done for
+    /// this build.
+    fn prepare(&mut self, list: &NeighbourList) {
         let n = list.start.len().saturating_sub(1);
-        let count = count.clamp(1, n.max(1));
-        if self.made_for == (list.builds, count) && self.first.len() == count + 1 {
+        if self.made_for == Some(list.builds) && self.work.len() == n + 1 {
             return;
         }
-        match self.measured_rates(n) {
-            Some((ends, ratio)) => {
-                let mut b = 0;
-                for (i, rate) in self.rate.iter_mut().enumerate() {
-                    while i >= ends[b] {
-                        b += 1;
-                    }
-                    // Half the correction (in logs) per split: the times
-                    // are noisy, and a full step overshoots.
-                    *rate = (*rate * ratio[b].sqrt()).clamp(0.25, 4.0);
-                }
-            }
-            None if self.rate.len() != n => self.rate = vec![1.0; n],
-            None => {}
-        }
-        self.made_for = (list.builds, count);
-        let mut work = Vec::with_capacity(n + 1);
-        work.push(0.0f64);
+        self.made_for = Some(list.builds);
+        self.work.clear();
+        self.work.push(0.0);
         let mut total = 0.0f64;
-        for (i, &rate) in self.rate.iter().enumerate() {
+        for i in 0..n {
             let ks = list.start[i] as usize..list.start[i + 1] as usize;
             let open: usize = list.open[ks.clone()].iter().map(|&o| usize::from(o)).sum();
-            total += rate * (ks.len() as f64 + (TOUCHING_WEIGHT - 1.0) * open as f64);
-            work.push(total);
+            total += ks.len() as f64 + (TOUCHING_WEIGHT - 1.0) * open as f64;
+            self.work.push(total);
         }
-        self.first.clear();
-        self.first.push(0);
-        for b in 1..count {
-            let target = total * b as f64 / count as f64;
-            let at = work[..n].partition_point(|&w| w < target);
-            let prev = self.first.last().copied().unwrap_or(0);
-            self.first.push(at.max(prev));
+        self.span = (list.pair_i.iter().zip(&list.pair_j))
+            .map(|(&i, &j)| j.saturating_sub(i) as usize)
+            .max()
+            .unwrap_or(0);
+    }
+}
+
+/// The sums and the pair histories of one pass, shared by its runs: each
+/// run reaches them only for the units it has claimed ([`Claims`]), so no
+/// two runs touch the same element but through a copy taken first.
+struct Shared {
+    force: *mut Vector3<f64>,
+    torque: *mut Vector3<f64>,
+    n: usize,
+    history: *mut History,
+    open: *mut u8,
+    pairs: usize,
+}
+
+// SAFETY: the runs reach disjoint parts (see `Shared`).
+unsafe impl Sync for Shared {}
+
+impl Shared {
+    /// The force and torque sums of particles `lo..hi`.
+    ///
+    /// # Safety
+    /// The calling run holds every unit of `lo..hi`, and nothing else
+    /// reaches them while the slices live.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn sums(&self, lo: usize, hi: usize) -> (&mut [Vector3<f64>], &mut [Vector3<f64>]) {
+        assert!(lo <= hi && hi <= self.n, "sums {lo}..{hi} of {}", self.n);
+        // SAFETY: in bounds (checked); exclusive by the caller's claims.
+        unsafe {
+            (
+                std::slice::from_raw_parts_mut(self.force.add(lo), hi - lo),
+                std::slice::from_raw_parts_mut(self.torque.add(lo), hi - lo),
+            )
         }
-        self.first.push(n);
-        self.work = (0..count)
-            .map(|b| work[self.first[b + 1]] - work[self.first[b]])
-            .collect();
-        self.spent_ns.clear();
-        self.spent_ns.resize(count, 0);
-        let mut block = vec![0u32; n];
-        for b in 0..count {
-            block[self.first[b]..self.first[b + 1]].fill(b as u32);
-        }
-        self.incoming_start.clear();
-        self.incoming_start.resize(count + 1, 0);
-        let crossing = || {
-            (list.pair_i.iter().zip(&list.pair_j).enumerate())
-                .filter(|&(_, (&i, &j))| block[i as usize] != block[j as usize])
-        };
-        for (_, (_, &j)) in crossing() {
-            self.incoming_start[block[j as usize] as usize + 1] += 1;
-        }
-        for b in 0..count {
-            self.incoming_start[b + 1] += self.incoming_start[b];
-        }
-        let n_incoming = self.incoming_start[count];
-        let mut fill = self.incoming_start[..count].to_vec();
-        for v in [
-            &mut self.incoming_i,
-            &mut self.incoming_j,
-            &mut self.incoming_k,
-        ] {
-            v.clear();
-            v.resize(n_incoming, 0);
-        }
-        // Pair order within each block: the list is in pair order.
-        for (k, (&i, &j)) in crossing() {
-            let slot = &mut fill[block[j as usize] as usize];
-            self.incoming_i[*slot] = i;
-            self.incoming_j[*slot] = j;
-            self.incoming_k[*slot] = k as u32;
-            *slot += 1;
-        }
-        // The histories as the list holds them now; from here on each
-        // block's pass keeps its copy equal to the list's, evaluating the
-        // same pairs from the same state in the same operations.
-        self.incoming_history.clear();
-        (self.incoming_history).extend(self.incoming_k.iter().map(|&k| list.history[k as usize]));
-        self.incoming_open.clear();
-        (self.incoming_open).extend(self.incoming_k.iter().map(|&k| list.open[k as usize]));
     }
 
-    /// Number of blocks.
-    fn count(&self) -> usize {
-        self.first.len() - 1
+    /// The histories and open flags of pairs `ks`.
+    ///
+    /// # Safety
+    /// The calling run holds the units of the pairs' first particles, and
+    /// every run that copies some of them has done so.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn pairs(&self, ks: std::ops::Range<usize>) -> (&mut [History], &mut [u8]) {
+        assert!(ks.start <= ks.end && ks.end <= self.pairs, "pairs {ks:?}");
+        // SAFETY: in bounds (checked); exclusive by the caller's claims.
+        unsafe {
+            (
+                std::slice::from_raw_parts_mut(self.history.add(ks.start), ks.len()),
+                std::slice::from_raw_parts_mut(self.open.add(ks.start), ks.len()),
+            )
+        }
     }
 
-    /// The last split's block ends and each block's time per unit of
-    /// estimated work relative to the mean, if it was for `n` particles,
-    /// had more than one block and was timed.
-    fn measured_rates(&self, n: usize) -> Option<(Vec<usize>, Vec<f64>)> {
-        let count = self.work.len();
-        if count < 2
-            || self.first.len() != count + 1
-            || self.first[count] != n
-            || self.rate.len() != n
-        {
-            return None;
-        }
-        let spent: u64 = self.spent_ns.iter().sum();
-        let work: f64 = self.work.iter().sum();
-        if spent == 0 || work <= 0.0 || self.work.iter().any(|&w| w <= 0.0) {
-            return None;
-        }
-        let mean = spent as f64 / work;
-        let rates = (self.spent_ns.iter().zip(&self.work))
-            .map(|(&t, &w)| t as f64 / w / mean)
-            .collect();
-        Some((self.first[1..].to_vec(), rates))
+    /// A copy of pair k's history and open flag.
+    ///
+    /// # Safety
+    /// The run that holds the pair's first particle does not change it
+    /// until told the copy is taken.
+    unsafe fn pair(&self, k: usize) -> (History, u8) {
+        assert!(k < self.pairs, "pair {k} of {}", self.pairs);
+        // SAFETY: in bounds (checked); not written meanwhile (the caller).
+        unsafe { (*self.history.add(k), *self.open.add(k)) }
     }
 }
 
@@ -558,65 +500,81 @@ macro_rules! dispatch {
 }
 
 impl PairRun<'_> {
-    /// The forces on block `lo..hi` (`f`, `t` from `lo`): body force, the
-    /// pairs `incoming` from earlier blocks (to their second particle
-    /// only, from the block's own copy of their histories: their first
-    /// particle's block updates the list's), then this run's pairs (to
-    /// their second particle only if it lies in the block).
+    /// Adds the run's pairs to their second particles only (`f`, `t`: the
+    /// sums of particles `lo..lo + f.len()`, where every second particle
+    /// lies): the pairs crossing into a run from below.
     #[inline(always)]
-    fn block(
-        &mut self,
-        x: &Inputs,
-        range: (usize, usize),
-        incoming: &mut PairRun,
-        f: &mut [Vector3<f64>],
-        t: &mut [Vector3<f64>],
-    ) {
+    fn incoming(&mut self, x: &Inputs, lo: usize, f: &mut [Vector3<f64>], t: &mut [Vector3<f64>]) {
         if x.images.any() {
-            self.block_in::<true>(x, range, incoming, f, t)
+            self.incoming_in::<true>(x, lo, f, t)
         } else {
-            self.block_in::<false>(x, range, incoming, f, t)
+            self.incoming_in::<false>(x, lo, f, t)
         }
     }
 
-    /// [`PairRun::block`] for a box with (`PERIODIC`) or without periodic
-    /// axes.
+    /// [`PairRun::incoming`] for a box with (`PERIODIC`) or without
+    /// periodic axes.
     #[inline(always)]
-    fn block_in<const PERIODIC: bool>(
+    fn incoming_in<const PERIODIC: bool>(
         &mut self,
         x: &Inputs,
-        (lo, hi): (usize, usize),
-        incoming: &mut PairRun,
+        lo: usize,
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
-        let p = x.p;
-        if f.is_empty() {
-            // No particles, so no pairs and nothing incoming.
-            return;
-        }
-        if !x.preset {
-            for (k, (f, t)) in f.iter_mut().zip(t.iter_mut()).enumerate() {
-                *f = x.body_accel * p.mass_kg[lo + k];
-                *t = Vector3::zeros();
-            }
-        }
         let radius = |i: usize| x.packed.sphere[i].0[3];
-        // A particle's pairs from earlier blocks come first in its sum:
-        // their first particles are lower.
-        incoming.each_contact::<PERIODIC>(x, lo, f, t, |f, t, _, j, cf| {
-            add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
-        });
+        self.each_contact::<PERIODIC>(
+            x,
+            lo,
+            f,
+            t,
+            #[inline(always)]
+            |f, t, _, j, cf| {
+                add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
+            },
+        );
+    }
+
+    /// Adds the run's pairs to their first particles and, where it lies
+    /// below `lo + f.len()`, to their second (`f`, `t`: the sums from
+    /// particle `lo` on).
+    #[inline(always)]
+    fn own(&mut self, x: &Inputs, lo: usize, f: &mut [Vector3<f64>], t: &mut [Vector3<f64>]) {
+        if x.images.any() {
+            self.own_in::<true>(x, lo, f, t)
+        } else {
+            self.own_in::<false>(x, lo, f, t)
+        }
+    }
+
+    /// [`PairRun::own`] for a box with (`PERIODIC`) or without periodic
+    /// axes.
+    #[inline(always)]
+    fn own_in<const PERIODIC: bool>(
+        &mut self,
+        x: &Inputs,
+        lo: usize,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+    ) {
+        let radius = |i: usize| x.packed.sphere[i].0[3];
+        let hi = lo + f.len();
         // Each pair's result goes straight to both particles, in pair
         // order: a particle's sum sees the same terms in the same order as
-        // if the pairs were taken one by one. A pair whose second particle
-        // lies in a later block is that block's incoming pair.
-        self.each_contact::<PERIODIC>(x, lo, f, t, |f, t, i, j, cf| {
-            add_contact(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
-            if j < hi {
-                add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
-            }
-        });
+        // if the pairs were taken one by one.
+        self.each_contact::<PERIODIC>(
+            x,
+            lo,
+            f,
+            t,
+            #[inline(always)]
+            |f, t, i, j, cf| {
+                add_contact(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
+                if j < hi {
+                    add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
+                }
+            },
+        );
     }
 
     /// Tests the run's pairs for overlap and evaluates the touching ones,
@@ -649,23 +607,34 @@ impl PairRun<'_> {
             }
             let count = self.sort_out::<PERIODIC>(x.packed, x.images, slots, &mut touching, x.far);
             let which = &touching[..count];
-            self.evaluate::<PERIODIC>(x.packed, x.images, x.model, x.dt_s, which, |i, j, cf| {
-                put(f, t, i, j, cf)
-            });
+            self.evaluate::<PERIODIC>(
+                x.packed,
+                x.images,
+                x.model,
+                x.dt_s,
+                which,
+                #[inline(always)]
+                |i, j, cf| put(f, t, i, j, cf),
+            );
         }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn block_avx2(
+    fn incoming_avx2(
         &mut self,
         x: &Inputs,
-        range: (usize, usize),
-        incoming: &mut PairRun,
+        lo: usize,
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
-        self.block(x, range, incoming, f, t)
+        self.incoming(x, lo, f, t)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn own_avx2(&mut self, x: &Inputs, lo: usize, f: &mut [Vector3<f64>], t: &mut [Vector3<f64>]) {
+        self.own(x, lo, f, t)
     }
 }
 
@@ -673,25 +642,26 @@ impl PairRun<'_> {
 /// `p.torque_n_m` (overwritten), updating the pairs' histories; `packed`
 /// is `p`'s current state packed ([`Particles::pack_into`]); with
 /// `preset`, the sums already hold the body force (the first sweep set
-/// them).
+/// them). The workers share the particles in runs ([`crate::runs`]);
+/// returns how many were split off others.
 pub(crate) fn pair_forces(
     params: &Params,
     p: &mut Particles,
-    (list, blocks): (&mut NeighbourList, &mut Blocks),
+    (list, schedule): (&mut NeighbourList, &mut Schedule),
     (packed, preset): (&Packed, bool),
     images: &Images,
     team: &Team,
-) {
+) -> usize {
     let simd = simd();
-    blocks.split(list, team.workers() * BLOCKS_PER_WORKER);
+    let n = p.len();
+    schedule.prepare(list);
+    let workers = team.workers().max(1);
+    let starts = schedule.shares.starts(workers, &schedule.work);
+    let runs = Runs::new(n, &starts);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
-    let nb = blocks.count();
-    let first = &blocks.first;
-    let start = &list.start;
-    // Pair range of block b.
-    let pairs_of = |b: usize| start[first[b]] as usize..start[first[b + 1]] as usize;
-    let (pi, pj) = (&list.pair_i[..], &list.pair_j[..]);
+    force.resize(n, Vector3::zeros());
+    torque.resize(n, Vector3::zeros());
     let x = Inputs {
         p,
         packed,
@@ -702,87 +672,248 @@ pub(crate) fn pair_forces(
         far: far(p.len()),
         preset,
     };
-    let incoming_start = &blocks.incoming_start;
-    let incoming_of = |b: usize| incoming_start[b]..incoming_start[b + 1];
-    let (incoming_i, incoming_j) = (&blocks.incoming_i[..], &blocks.incoming_j[..]);
-    let incoming_lens = || (0..nb).map(|b| incoming_of(b).len());
-    let incoming_histories = split_lengths(&mut blocks.incoming_history, incoming_lens());
-    let incoming_opens = split_lengths(&mut blocks.incoming_open, incoming_lens());
-    let block_lens = || (0..nb).map(|b| first[b + 1] - first[b]);
-    let histories = split_lengths(&mut list.history, (0..nb).map(|b| pairs_of(b).len()));
-    let opens = split_lengths(&mut list.open, (0..nb).map(|b| pairs_of(b).len()));
-    let forces = split_lengths(&mut force, block_lens());
-    let torques = split_lengths(&mut torque, block_lens());
-    let mut incoming = incoming_histories.into_iter().zip(incoming_opens);
-    let parts = (histories.into_iter().zip(opens))
-        .zip(forces.into_iter().zip(torques))
-        .map_while(|(own, sums)| Some((own, sums, incoming.next()?)))
+    let shared = Shared {
+        force: force.as_mut_ptr(),
+        torque: torque.as_mut_ptr(),
+        n,
+        history: list.history.as_mut_ptr(),
+        open: list.open.as_mut_ptr(),
+        pairs: list.history.len().min(list.open.len()),
+    };
+    let pass = Pass {
+        x: &x,
+        simd,
+        list: (&list.start, &list.pair_i, &list.pair_j),
+        span: schedule.span,
+        runs: &runs,
+        shared: &shared,
+    };
+    let work = &schedule.work;
+    let done: Vec<AtomicU64> = (0..workers).map(|_| AtomicU64::new(0)).collect();
+    let spent: Vec<AtomicU64> = (0..workers).map(|_| AtomicU64::new(0)).collect();
+    team.run(workers, &|w| {
+        let started = std::time::Instant::now();
+        let mut did = 0.0;
+        let mut next = runs.take_first(w);
+        while let Some(taken) = next {
+            let (lo, hi) = pass.run(taken);
+            did += work[hi] - work[lo];
+            next = runs.steal();
+        }
+        done[w].store(did.to_bits(), Ordering::Relaxed);
+        let ns = u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        spent[w].store(ns, Ordering::Relaxed);
+    });
+    let done: Vec<(f64, u64)> = (done.iter().zip(&spent))
+        .map(|(d, t)| {
+            (
+                f64::from_bits(d.load(Ordering::Relaxed)),
+                t.load(Ordering::Relaxed),
+            )
+        })
         .collect();
-    let spent_ns = team.map(
-        parts,
-        |b, ((history, open), (f, t), (in_history, in_open))| {
-            let started = std::time::Instant::now();
-            let mut run = PairRun::of(pi, pj, pairs_of(b), history, open);
-            let ks = incoming_of(b);
-            let mut incoming = PairRun::of(incoming_i, incoming_j, ks, in_history, in_open);
-            let range = (first[b], first[b + 1]);
-            dispatch!(simd, run.block_avx2 / block(&x, range, &mut incoming, f, t));
-            u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX)
-        },
-    );
-    for (total, t) in blocks.spent_ns.iter_mut().zip(spent_ns) {
-        *total = total.saturating_add(t);
-    }
+    schedule.shares.learn(&done);
     p.force_n = force;
     p.torque_n_m = torque;
+    runs.splits()
+}
+
+/// One step's pair pass, as its runs see it.
+struct Pass<'a> {
+    x: &'a Inputs<'a>,
+    simd: Simd,
+    /// The list's `start`, `pair_i` and `pair_j`.
+    list: (&'a [u32], &'a [u32], &'a [u32]),
+    /// Largest j − i over the listed pairs.
+    span: usize,
+    runs: &'a Runs,
+    shared: &'a Shared,
+}
+
+impl Pass<'_> {
+    /// Runs `taken`: the pairs crossing into it from below (to their
+    /// second particles only), then its units' pairs in order, answering
+    /// split requests before each unit; returns the particles it ran.
+    fn run(&self, taken: Taken) -> (usize, usize) {
+        /// Tells the other runs to stop waiting if this one panics.
+        struct Abort<'f>(&'f Runs);
+        impl Drop for Abort<'_> {
+            fn drop(&mut self) {
+                if std::thread::panicking() {
+                    self.0.abort();
+                }
+            }
+        }
+        let _abort = Abort(self.runs);
+        let (start, pi, pj) = self.list;
+        let (x, runs) = (self.x, self.runs);
+        let n = x.p.len();
+        let run = runs.get(taken.run);
+        let first = run.first();
+        let lo = first * UNIT;
+        let end = |unit: usize| (unit * UNIT).min(n);
+        let body = |from: usize, to: usize| {
+            if !x.preset {
+                // SAFETY: particles from..to are the run's own.
+                let (f, t) = unsafe { self.shared.sums(from, to) };
+                for (k, (f, t)) in f.iter_mut().zip(t.iter_mut()).enumerate() {
+                    *f = x.body_accel * x.p.mass_kg[from + k];
+                    *t = Vector3::zeros();
+                }
+            }
+        };
+        if taken.whole {
+            body(lo, end(run.limit().unit));
+        }
+        if first > 0 {
+            // The pairs crossing into the run from the units whose pairs
+            // its particles do not hold yet, in pair order, from a copy of
+            // their histories (the run below keeps the list's, and waits
+            // for this copy before changing them).
+            let hi = end(run.limit().unit);
+            let from = (taken.done * UNIT).max(lo.saturating_sub(self.span));
+            let ks = (start[from] as usize..start[lo] as usize)
+                .filter(|&k| (lo..hi).contains(&(pj[k] as usize)));
+            let (mut ci, mut cj, mut ch, mut co) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+            for k in ks {
+                // SAFETY: the run below waits for `set_copied`.
+                let (h, o) = unsafe { self.shared.pair(k) };
+                ci.push(pi[k]);
+                cj.push(pj[k]);
+                ch.push(h);
+                co.push(o);
+            }
+            run.set_copied();
+            let mut crossing = PairRun::of(&ci, &cj, 0..ci.len(), &mut ch, &mut co);
+            // SAFETY: particles lo..hi are the run's own.
+            let (f, t) = unsafe { self.shared.sums(lo, hi) };
+            dispatch!(self.simd, crossing.incoming_avx2 / incoming(x, lo, f, t));
+        } else {
+            run.set_copied();
+        }
+        let mut u = first;
+        loop {
+            let mut limit = run.before_unit(u, runs);
+            let uhi = end(u + 1);
+            if u < limit.unit && limit.run != NONE_RUN && uhi + self.span > end(limit.unit) {
+                // This unit's pairs may reach the next run: take it over
+                // if no worker has begun it, else wait for its copy.
+                if let Some(units) = runs.absorb(taken.run, limit.run) {
+                    body(end(units.start), end(units.end));
+                    continue;
+                }
+                runs.wait_copied(limit.run);
+                limit = run.limit();
+            }
+            if u >= limit.unit {
+                break;
+            }
+            let ulo = u * UNIT;
+            let ks = start[ulo] as usize..start[uhi] as usize;
+            // SAFETY: particles ulo..limit are the run's own, and the next
+            // run has copied the pairs that reach it.
+            let ((f, t), (h, o)) = unsafe {
+                (
+                    self.shared.sums(ulo, end(limit.unit)),
+                    self.shared.pairs(ks.clone()),
+                )
+            };
+            let mut own = PairRun::of(pi, pj, ks, h, o);
+            dispatch!(self.simd, own.own_avx2 / own(x, ulo, f, t));
+            u += 1;
+        }
+        run.finish();
+        (lo, end(u))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// A row of 200 touching spheres (r = 1 mm, 1.9 mm apart) and its list.
-    fn row() -> NeighbourList {
+    #[test]
+    fn the_schedule_estimates_work_and_reach_per_build() {
+        // A row of 200 touching spheres (r = 1 mm, 1.9 mm apart).
         let x: Vec<_> = (0..200)
             .map(|i| Vector3::new(i as f64 * 1.9e-3, 0.0, 0.0))
             .collect();
-        let r = vec![1e-3; x.len()];
         let mut list = NeighbourList::default();
-        list.build(&x, &r, 2e-4).unwrap();
-        list
+        list.build(&x, &vec![1e-3; x.len()], 2e-4).unwrap();
+        let mut s = Schedule::default();
+        s.prepare(&list);
+        // One listed pair per particle but the last, none open yet.
+        assert_eq!(s.work.len(), 201);
+        assert_eq!(s.work[200], 199.0);
+        assert_eq!(s.span, 1);
     }
 
     #[test]
-    fn equal_work_splits_a_uniform_row_in_the_middle() {
-        let list = row();
-        let mut blocks = Blocks::default();
-        blocks.split(&list, 2);
-        assert_eq!(blocks.first, vec![0, 100, 200]);
-        // Straddling: only the pair (99, 100), incoming to block 1.
-        assert_eq!(blocks.incoming_start, vec![0, 0, 1]);
-        assert_eq!((blocks.incoming_i[0], blocks.incoming_j[0]), (99, 100));
-    }
-
-    #[test]
-    fn a_block_that_ran_long_gives_up_particles_at_the_next_split() {
-        let mut list = row();
-        let mut blocks = Blocks::default();
-        blocks.split(&list, 2);
-        // Block 0 took twice as long per unit of work as block 1.
-        blocks.spent_ns = vec![2_000, 1_000];
-        list.builds += 1;
-        blocks.split(&list, 2);
-        let b = blocks.first[1];
-        // Rates √(4/3) and √(2/3): with one listed pair per particle (none
-        // for the last) the halves balance where 1.155 b = 0.816 (199 − b),
-        // b ≈ 85.
-        assert!((84..=86).contains(&b), "split at {b}");
-        // Untimed, the same build keeps its split; a new build with equal
-        // times keeps the learnt rates.
-        blocks.spent_ns = vec![1_000, 1_000];
-        list.builds += 1;
-        blocks.split(&list, 2);
-        assert!(blocks.first[1] < 100);
+    fn runs_split_within_the_pass_give_the_same_bits() {
+        // 16 × 16 × 16 grains 1.98 mm apart (r = 1 mm: each touches six),
+        // moving at random: 32 units, pairs reaching ≈ 2 units on.
+        let params = crate::benchmark::params().unwrap();
+        let mut p = Particles::new();
+        let mut seed = 12345u64;
+        let mut random = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for k in 0..16 {
+            for j in 0..16 {
+                for i in 0..16 {
+                    let x = Vector3::new(i as f64, j as f64, k as f64) * 1.98e-3;
+                    let v = Vector3::new(random(), random(), random()) * 0.02;
+                    p.push(x, v, 1.0e-3, 2920.0).unwrap();
+                }
+            }
+        }
+        let mut list = NeighbourList::default();
+        list.build(&p.position_m, &p.radius_m, params.skin_m)
+            .unwrap();
+        let mut packed = Packed::default();
+        p.pack_into(&mut packed);
+        let images = Images::default();
+        let pass = |p: &mut Particles, list: &mut NeighbourList, s: &mut Schedule, team: &Team| {
+            pair_forces(&params, p, (list, s), (&packed, false), &images, team)
+        };
+        // Contacts opened and springs stretched, then the reference.
+        let mut schedule = Schedule::default();
+        for _ in 0..3 {
+            pass(&mut p, &mut list, &mut schedule, &Team::alone());
+        }
+        let start = (list.history.clone(), list.open.clone());
+        assert!(list.open.iter().filter(|&&o| o == 1).count() > 10_000);
+        pass(&mut p, &mut list, &mut schedule, &Team::alone());
+        let want = (
+            p.force_n.clone(),
+            p.torque_n_m.clone(),
+            list.history.clone(),
+        );
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let splits = pool.install(|| {
+            crate::team::with_team(|team| {
+                let mut splits = 0;
+                for _ in 0..2_000 {
+                    (list.history, list.open) = start.clone();
+                    splits += pass(&mut p, &mut list, &mut schedule, team);
+                    let got = (&p.force_n, &p.torque_n_m, &list.history);
+                    assert!(
+                        got == (&want.0, &want.1, &want.2),
+                        "a 2-worker pass differs"
+                    );
+                    if splits >= 20 {
+                        break;
+                    }
+                }
+                splits
+            })
+        });
+        assert!(splits > 0, "no run was split");
     }
 }
 
@@ -838,7 +969,7 @@ mod pass_parts_alone {
                     pair_forces(
                         &params,
                         &mut state.particles,
-                        (&mut state.neighbours, &mut state.blocks),
+                        (&mut state.neighbours, &mut state.schedule),
                         (&state.packed, false),
                         &state.images,
                         &Team::alone(),

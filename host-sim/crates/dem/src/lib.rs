@@ -34,6 +34,7 @@ pub mod integrate;
 pub mod neighbour;
 pub mod particles;
 pub mod periodic;
+mod runs;
 pub mod scaling;
 pub mod sink;
 mod team;
@@ -174,7 +175,7 @@ pub struct State {
     /// Steps taken.
     pub step_count: u64,
     neighbours: NeighbourList,
-    blocks: forces::Blocks,
+    schedule: forces::Schedule,
     wall_contacts: wall_contacts::WallContacts,
     wall_force_n: Vec<Vector3<f64>>,
     wall_normal_load_n: Vec<f64>,
@@ -211,7 +212,7 @@ impl State {
             time_s: 0.0,
             step_count: 0,
             neighbours: NeighbourList::default(),
-            blocks: forces::Blocks::default(),
+            schedule: forces::Schedule::default(),
             wall_contacts: wall_contacts::WallContacts::default(),
             wall_force_n: Vec::new(),
             wall_normal_load_n: Vec::new(),
@@ -276,7 +277,7 @@ impl State {
             self.neighbours = NeighbourList::default();
             // Its build count starts again: the split must not be taken
             // for the old list's.
-            self.blocks = forces::Blocks::default();
+            self.schedule = forces::Schedule::default();
             self.forces_ready = false;
         }
         if !self.wall_contacts.fits(n, walls) || self.wall_force_n.len() != walls {
@@ -361,7 +362,7 @@ impl State {
         forces::pair_forces(
             params,
             &mut self.particles,
-            (&mut self.neighbours, &mut self.blocks),
+            (&mut self.neighbours, &mut self.schedule),
             (&self.packed, packed_current),
             &self.images,
             team,

@@ -1,5 +1,6 @@
 //! The pool's workers held for the steps of one [`crate::advance`]: each
-//! step has three parallel phases (first sweep, pair pass, walls), ≈ 1.5 ms
+//! step has two parallel phases (first sweep, pair pass; the walls a third
+//! after a list build), ≈ 1.5 ms
 //! apart at two workers on the benchmark, and a rayon worker that runs out
 //! of work sleeps after ≈ 30 µs, to be woken by the next phase (tens to
 //! hundreds of µs on a VM: `cargo run --profile sim --target host-tuple -p
@@ -116,6 +117,9 @@ impl Team<'_, '_> {
             crew.helpers.fetch_add(1, Ordering::AcqRel);
             scope.spawn(move |_| crew.help());
         }
+        // If a task panics on the caller, the job must outlive the tasks
+        // helpers are running.
+        let _settle = Settle { crew, tasks };
         while crew.take_task(false) {}
         // The rest were claimed by helpers, which are running them.
         while crew.done.load(Ordering::Acquire) < tasks {
@@ -149,6 +153,40 @@ impl Team<'_, '_> {
             .map(|m| m.into_inner().ok().flatten())
             .collect::<Option<Vec<R>>>()
             .unwrap_or_else(|| panic!("every task of a team phase runs once"))
+    }
+}
+
+/// Waits, while the caller unwinds from a panicking task, for the tasks
+/// helpers claimed to end, after taking the unclaimed ones away: those
+/// tasks read the phase's job, which lives in the caller's frame.
+struct Settle<'c> {
+    crew: &'c Crew,
+    tasks: usize,
+}
+
+impl Drop for Settle<'_> {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            return;
+        }
+        let crew = self.crew;
+        let mut claim = crew.claim.load(Ordering::Acquire);
+        let unclaimed = loop {
+            let (front, back) = ((claim >> 16) & 0xffff, claim & 0xffff);
+            let closed = claim & !0xffff | front;
+            match (crew.claim).compare_exchange_weak(
+                claim,
+                closed,
+                Ordering::AcqRel,
+                Ordering::Acquire,
+            ) {
+                Ok(_) => break back.saturating_sub(front) as usize,
+                Err(now) => claim = now,
+            }
+        };
+        while crew.done.load(Ordering::Acquire) + unclaimed < self.tasks {
+            std::hint::spin_loop();
+        }
     }
 }
 
