@@ -772,9 +772,11 @@ impl Pass<'_> {
             // for this copy before changing them).
             let hi = end(run.limit().unit);
             let from = (taken.done * UNIT).max(lo.saturating_sub(self.span));
-            let ks = (start[from] as usize..start[lo] as usize)
-                .filter(|&k| (lo..hi).contains(&(pj[k] as usize)));
-            let (mut ci, mut cj, mut ch, mut co) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+            let ks = start[from] as usize..start[lo] as usize;
+            let most = ks.len();
+            let ks = ks.filter(|&k| (lo..hi).contains(&(pj[k] as usize)));
+            let (mut ci, mut cj) = (Vec::with_capacity(most), Vec::with_capacity(most));
+            let (mut ch, mut co) = (Vec::with_capacity(most), Vec::with_capacity(most));
             for k in ks {
                 // SAFETY: the run below waits for `set_copied`.
                 let (h, o) = unsafe { self.shared.pair(k) };
