@@ -26,7 +26,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// Pairs gathered and evaluated together (sized for the L1 cache).
 const PAIR_CHUNK: usize = 256;
 /// Listed pairs ahead of the overlap test whose second sphere's rows are
-/// prefetched. Within a block the first particles run in order and the
+/// prefetched. Within a run the first particles go in order and the
 /// hardware's stream prefetchers follow them, but each pair's second
 /// particle lies a few hundred rows on, reached out of order: on a bed
 /// larger than the caches those rows came from memory, one miss at a
@@ -120,8 +120,9 @@ fn pair_geometry_lanes<const PERIODIC: bool>(
     )
 }
 
-/// The pairs of one block (slot s is pair `first + s` of the list), with
-/// their histories and open flags (1 while the history holds a contact).
+/// Listed pairs evaluated in order: one unit's of a run, or those crossing
+/// into a run (a copy), with their histories and open flags (1 while the
+/// history holds a contact).
 struct PairRun<'a> {
     pi: &'a [u32],
     pj: &'a [u32],
@@ -466,7 +467,7 @@ pub fn use_simd(level: Simd) -> Simd {
     level
 }
 
-/// What every block's task reads.
+/// What every run of the pass reads.
 struct Inputs<'a> {
     p: &'a Particles,
     packed: &'a Packed,
@@ -579,7 +580,7 @@ impl PairRun<'_> {
 
     /// Tests the run's pairs for overlap and evaluates the touching ones,
     /// a chunk at a time, calling `put(f, t, i, j, force)` for each in pair
-    /// order (`f`, `t`: the sums of the block from particle `lo` on).
+    /// order (`f`, `t`: the sums of the run from particle `lo` on).
     #[inline(always)]
     fn each_contact<const PERIODIC: bool>(
         &mut self,
@@ -595,7 +596,7 @@ impl PairRun<'_> {
         for s0 in (0..len).step_by(PAIR_CHUNK) {
             let slots = s0..(s0 + PAIR_CHUNK).min(len);
             // The next chunk's second particles' force and torque: the
-            // block's sums were set at its start, long evicted on a large
+            // run's sums were set at the step's start, long evicted on a large
             // bed (980,000 grains: 131 → 125 ns a particle-step).
             if x.far {
                 for &j in &pj[(s0 + PAIR_CHUNK).min(len)..(s0 + 2 * PAIR_CHUNK).min(len)] {
@@ -852,21 +853,16 @@ mod tests {
     #[test]
     fn runs_split_within_the_pass_give_the_same_bits() {
         // 16 × 16 × 16 grains 1.98 mm apart (r = 1 mm: each touches six),
-        // moving at random: 32 units, pairs reaching ≈ 2 units on.
+        // moving every way: 32 units, pairs reaching ≈ 2 units on.
         let params = crate::benchmark::params().unwrap();
         let mut p = Particles::new();
-        let mut seed = 12345u64;
-        let mut random = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
         for k in 0..16 {
             for j in 0..16 {
                 for i in 0..16 {
                     let x = Vector3::new(i as f64, j as f64, k as f64) * 1.98e-3;
-                    let v = Vector3::new(random(), random(), random()) * 0.02;
+                    // Scattered velocities, up to 10 mm/s a component.
+                    let q = (i + 16 * j + 256 * k) as f64;
+                    let v = Vector3::new((1.3 * q).sin(), (0.7 * q).cos(), (2.1 * q).sin()) * 0.01;
                     p.push(x, v, 1.0e-3, 2920.0).unwrap();
                 }
             }
