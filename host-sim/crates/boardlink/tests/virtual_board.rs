@@ -47,6 +47,22 @@ fn info_reports_the_compiled_in_table_and_no_zero() {
 #[test]
 fn tare_then_link_loss_stops_the_cycle_safely() {
     let _board = one_board();
+    // The board's tasks run in real time: a host stall that starves the
+    // sensor task past its retries (SensorBus) or the control loop past its
+    // overrun limit (ControlOverrun) ends the cycle with a fault nothing in
+    // this test causes. Such a run is tried again on a fresh board, twice at
+    // most.
+    let mut tries = 1;
+    while let Some(stalled) = link_loss_once() {
+        assert!(tries < 3, "{stalled:?} in {tries} tries");
+        eprintln!("{stalled:?} before the link loss (the host stalled the board's tasks); again");
+        tries += 1;
+    }
+}
+
+/// One try of [`tare_then_link_loss_stops_the_cycle_safely`]: `Some` of a
+/// fault only a host stall causes, if one ended the cycle first.
+fn link_loss_once() -> Option<Fault> {
     let (vb, mut link) = board();
     link.connect().unwrap();
     // No zero yet: Start is refused.
@@ -81,11 +97,16 @@ fn tare_then_link_loss_stops_the_cycle_safely() {
             "no link-loss stop within {bound:?}"
         );
     };
-    assert_eq!(fault, Some(Fault::LinkLoss));
     std::thread::sleep(Duration::from_millis(50));
+    // Whatever the fault, the outputs are safe.
     assert!(vb.outputs_safe(), "valve open and pump driver off");
+    if let Some(stalled @ (Fault::SensorBus | Fault::ControlOverrun)) = fault {
+        return Some(stalled);
+    }
+    assert_eq!(fault, Some(Fault::LinkLoss));
     let info = link.connect().unwrap();
     assert_eq!(info.last_fault, Some(Fault::LinkLoss));
+    None
 }
 
 /// A valid table image that is not the compiled-in table: the self-test
