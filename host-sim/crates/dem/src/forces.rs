@@ -331,7 +331,7 @@ impl Schedule {
 }
 
 /// The sums and the pair histories of one pass, shared by its runs: each
-/// run reaches them only for the units it has claimed ([`Claims`]), so no
+/// run reaches them only for the units it holds ([`crate::runs`]), so no
 /// two runs touch the same element but through a copy taken first.
 struct Shared {
     force: *mut Vector3<f64>,
@@ -763,7 +763,7 @@ impl Pass<'_> {
                 }
             }
         };
-        if taken.whole {
+        if runs.is_first(taken.run) {
             body(lo, end(run.limit().unit));
         }
         if first > 0 {

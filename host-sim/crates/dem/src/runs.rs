@@ -144,8 +144,6 @@ pub(crate) struct Runs {
     used: AtomicUsize,
     /// The run a thief is creating (set while its request is pending).
     pending: AtomicUsize,
-    /// Units in the pass.
-    units: usize,
     /// The workers' first runs (the first in `runs`).
     firsts: usize,
     /// Set when a run panicked, so that none waits for it.
@@ -153,13 +151,10 @@ pub(crate) struct Runs {
 }
 
 /// A run taken by a worker: whole (a worker's first run, or one whose
-/// worker had not come), or split off another.
+/// worker had not come: [`Runs::is_first`]), or split off another.
 pub(crate) struct Taken {
     /// Its index.
     pub run: usize,
-    /// Whether it is a worker's first run (its particles' sums not yet
-    /// begun), else split off another.
-    pub whole: bool,
     /// The unit below which the particles from its first unit on already
     /// hold every pair: the pairs crossing into it from units `done..first`
     /// are the run's to evaluate (`done` = 0: all from below).
@@ -197,7 +192,6 @@ impl Runs {
             used: AtomicUsize::new(kept.len()),
             firsts: kept.len(),
             pending: AtomicUsize::new(NONE_RUN),
-            units,
             abort: AtomicBool::new(false),
         }
     }
@@ -212,39 +206,28 @@ impl Runs {
         &self.runs[r]
     }
 
-    /// Takes worker `w`'s first run, unless a thief took it first.
+    /// Whether run `r` is a worker's first run (whose particles' sums are
+    /// not begun when it is taken), not one split off another.
+    pub(crate) fn is_first(&self, r: usize) -> bool {
+        r < self.firsts
+    }
+
+    /// Takes worker `w`'s first run, unless someone took it first (every
+    /// first run holds at least one unit: [`Runs::new`]).
     pub(crate) fn take_first(&self, w: usize) -> Option<Taken> {
-        if w >= self.firsts {
+        let run = self.runs[..self.firsts].get(w)?;
+        if run.taken.load(Ordering::Acquire) || run.taken.swap(true, Ordering::AcqRel) {
             return None;
         }
-        let run = &self.runs[w];
-        if run.taken.swap(true, Ordering::AcqRel) || run.first() >= self.units {
-            return None;
-        }
-        Some(Taken {
-            run: w,
-            whole: true,
-            done: 0,
-        })
+        Some(Taken { run: w, done: 0 })
     }
 
     /// Takes a run for an idle worker: a first run no worker has begun, or
     /// the upper part of the run with the most units left (waiting for it
     /// to answer); `None` if none is worth it.
     pub(crate) fn steal(&self) -> Option<Taken> {
-        // A first run nobody has begun: whole.
-        for w in 0..self.firsts {
-            let run = &self.runs[w];
-            if !run.taken.load(Ordering::Acquire)
-                && !run.taken.swap(true, Ordering::AcqRel)
-                && run.first() < self.units
-            {
-                return Some(Taken {
-                    run: w,
-                    whole: true,
-                    done: 0,
-                });
-            }
+        if let Some(whole) = (0..self.firsts).find_map(|w| self.take_first(w)) {
+            return Some(whole);
         }
         let used = self.used.load(Ordering::Acquire).min(MAX_RUNS);
         let (mut victim, mut most) = (NONE_RUN, 0);
@@ -324,7 +307,6 @@ impl Runs {
         self.pending.store(NONE_RUN, Ordering::Release);
         split.then_some(Taken {
             run: r,
-            whole: false,
             done: (answer & !TAG) as usize,
         })
     }
@@ -438,7 +420,7 @@ mod tests {
         assert_eq!(runs.take_first(1).map(|t| t.run), Some(1));
         assert!(runs.take_first(1).is_none());
         // Worker 0 has not come: a thief takes its run whole.
-        let t = runs.steal().map(|t| (t.run, t.whole));
+        let t = runs.steal().map(|t| (t.run, runs.is_first(t.run)));
         assert_eq!(t, Some((0, true)));
         assert!(runs.take_first(0).is_none());
     }
@@ -469,7 +451,7 @@ mod tests {
         let run = runs.get(0);
         assert_eq!(run.before_unit(4, &runs).unit, 20);
         std::thread::scope(|s| {
-            let thief = s.spawn(|| runs.steal().map(|t| (t.run, t.whole, t.done)));
+            let thief = s.spawn(|| runs.steal().map(|t| (t.run, runs.is_first(t.run), t.done)));
             // It answers before the same unit.
             while run.before_unit(4, &runs).unit == 20 {
                 std::hint::spin_loop();
