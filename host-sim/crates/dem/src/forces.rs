@@ -658,7 +658,7 @@ pub(crate) fn pair_forces(
     schedule.prepare(list);
     let workers = team.workers().max(1);
     let starts = schedule.shares.starts(workers, &schedule.work);
-    let runs = Runs::new(n, &starts);
+    let runs = Runs::new(n, &starts, schedule.span);
     let mut force = std::mem::take(&mut p.force_n);
     let mut torque = std::mem::take(&mut p.torque_n_m);
     force.resize(n, Vector3::zeros());
@@ -786,6 +786,11 @@ impl Pass<'_> {
                 ch.push(h);
                 co.push(o);
             }
+            if !runs.is_first(taken.run) {
+                // The run below may reach past this one, into the next,
+                // which it does not wait for ([`crate::runs`]).
+                runs.wait_copied(run.limit().run);
+            }
             run.set_copied();
             let mut crossing = PairRun::of(&ci, &cj, 0..ci.len(), &mut ch, &mut co);
             // SAFETY: particles lo..hi are the run's own.
@@ -850,13 +855,17 @@ mod tests {
         assert_eq!(s.span, 1);
     }
 
-    #[test]
-    fn runs_split_within_the_pass_give_the_same_bits() {
-        // 16 × 16 × 16 grains 1.98 mm apart (r = 1 mm: each touches six),
-        // moving every way: 32 units, pairs reaching ≈ 2 units on.
+    /// Runs the pass on 16 × 16 × 16 grains 1.98 mm apart (r = 1 mm: each
+    /// touches six), moving every way, with `workers` workers for up to
+    /// `passes` passes, each from the same histories, and checks that
+    /// every one gives the bits of one worker; returns the runs split off
+    /// others. The grains' layers are stored in the order `layers`, so a
+    /// pair reaches from one layer to the next as far as their places in
+    /// that order are apart (256 grains, two units, a place).
+    fn same_bits_as_one_worker(workers: usize, layers: &[usize], passes: usize) -> usize {
         let params = crate::benchmark::params().unwrap();
         let mut p = Particles::new();
-        for k in 0..16 {
+        for &k in layers {
             for j in 0..16 {
                 for i in 0..16 {
                     let x = Vector3::new(i as f64, j as f64, k as f64) * 1.98e-3;
@@ -890,28 +899,48 @@ mod tests {
             list.history.clone(),
         );
         let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
+            .num_threads(workers)
             .build()
             .unwrap();
-        let splits = pool.install(|| {
+        pool.install(|| {
             crate::team::with_team(|team| {
                 let mut splits = 0;
-                for _ in 0..2_000 {
+                for pass_no in 0..passes {
                     (list.history, list.open) = start.clone();
                     splits += pass(&mut p, &mut list, &mut schedule, team);
                     let got = (&p.force_n, &p.torque_n_m, &list.history);
                     assert!(
                         got == (&want.0, &want.1, &want.2),
-                        "a 2-worker pass differs"
+                        "a {workers}-worker pass differs (pass {pass_no})"
                     );
-                    if splits >= 20 {
+                    if splits >= 20 && workers == 2 {
                         break;
                     }
                 }
                 splits
             })
-        });
-        assert!(splits > 0, "no run was split");
+        })
+    }
+
+    #[test]
+    fn runs_split_within_the_pass_give_the_same_bits() {
+        let layers: Vec<usize> = (0..16).collect();
+        assert!(
+            same_bits_as_one_worker(2, &layers, 2_000) > 0,
+            "no run was split"
+        );
+    }
+
+    #[test]
+    fn runs_shorter_than_the_pairs_reach_give_the_same_bits() {
+        // Even layers first, then odd ones: a pair reaches 16 units on,
+        // past several workers' runs.
+        let layers: Vec<usize> = (0..16).step_by(2).chain((1..16).step_by(2)).collect();
+        // Sixteen workers on 32 units: the first runs are two units long
+        // but for the merging of [`Runs::new`].
+        for workers in [3, 8, 16] {
+            same_bits_as_one_worker(workers, &layers, 500);
+        }
     }
 }
 

@@ -20,6 +20,14 @@
 //! particles' run evaluates them too, each adding its own particle's
 //! share), from a copy of their histories taken before the run below
 //! changes them: that run waits for [`Run::copied`] first.
+//!
+//! A run waits only for the next run's copy, so no run may be reached
+//! past the next by the pairs of the one before it: the workers' first
+//! runs are at least the pairs' reach long ([`Runs::new`]), and a run
+//! split off another counts its copy done only once the run after it has
+//! copied (a split can leave the run below shorter than the reach; its
+//! pairs reaching past the new run were copied by the run after, taken
+//! before any split).
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
@@ -163,14 +171,18 @@ pub(crate) struct Taken {
 
 impl Runs {
     /// Runs for a pass over `n` particles whose workers start at units
-    /// `starts` (ascending, the first 0).
-    pub(crate) fn new(n: usize, starts: &[usize]) -> Runs {
+    /// `starts` (ascending, the first 0), for pairs (i, j) with
+    /// j − i ≤ `reach` particles.
+    pub(crate) fn new(n: usize, starts: &[usize], reach: usize) -> Runs {
         let units = n.div_ceil(UNIT);
         let runs: Vec<Run> = (0..MAX_RUNS).map(|_| Run::default()).collect();
         let mut kept: Vec<usize> = Vec::with_capacity(starts.len());
-        // Empty first runs left out: a run waits for the next one's copy.
+        // A run waits for the next one's copy only: each first run is at
+        // least `reach` long, so that the pairs of the run before it end
+        // inside it (empty first runs are so left out too).
+        let least = reach.div_ceil(UNIT).max(1);
         for &s in starts {
-            if s < units && kept.last().is_none_or(|&l| s > l) {
+            if s < units && kept.last().is_none_or(|&l| s >= l + least) {
                 kept.push(s);
             }
         }
@@ -408,7 +420,7 @@ mod tests {
 
     #[test]
     fn each_first_run_is_taken_once() {
-        let runs = Runs::new(UNIT * 10, &[0, 6]);
+        let runs = Runs::new(UNIT * 10, &[0, 6], UNIT);
         assert_eq!(runs.get(0).limit(), Limit { unit: 6, run: 1 });
         assert_eq!(
             runs.get(1).limit(),
@@ -426,8 +438,28 @@ mod tests {
     }
 
     #[test]
+    fn first_runs_are_at_least_the_pairs_reach_long() {
+        // Pairs reach 300 particles on (three units): the runs from units
+        // 2 and 4 are merged into the ones before them.
+        let runs = Runs::new(UNIT * 20, &[0, 2, 3, 4, 7, 8], 300);
+        assert_eq!(runs.firsts, 3);
+        let ends: Vec<Limit> = (0..3).map(|r| runs.get(r).limit()).collect();
+        let firsts: Vec<usize> = (0..3).map(|r| runs.get(r).first()).collect();
+        assert_eq!(firsts, vec![0, 3, 7]);
+        assert_eq!(ends[0], Limit { unit: 3, run: 1 });
+        assert_eq!(ends[1], Limit { unit: 7, run: 2 });
+        assert_eq!(
+            ends[2],
+            Limit {
+                unit: 20,
+                run: NONE_RUN
+            }
+        );
+    }
+
+    #[test]
     fn a_run_takes_over_the_next_if_no_worker_began_it() {
-        let runs = Runs::new(UNIT * 10, &[0, 6]);
+        let runs = Runs::new(UNIT * 10, &[0, 6], UNIT);
         assert!(runs.take_first(0).is_some());
         assert_eq!(runs.absorb(0, 1), Some(6..10));
         assert_eq!(
@@ -438,14 +470,14 @@ mod tests {
             }
         );
         assert!(runs.take_first(1).is_none());
-        let runs = Runs::new(UNIT * 10, &[0, 6]);
+        let runs = Runs::new(UNIT * 10, &[0, 6], UNIT);
         assert!(runs.take_first(1).is_some());
         assert_eq!(runs.absorb(0, 1), None);
     }
 
     #[test]
     fn a_split_hands_over_the_upper_half_at_a_unit_boundary() {
-        let runs = Runs::new(UNIT * 20, &[0]);
+        let runs = Runs::new(UNIT * 20, &[0], UNIT);
         assert!(runs.take_first(0).is_some());
         // The run is before its unit 4: 16 units left.
         let run = runs.get(0);
@@ -473,7 +505,7 @@ mod tests {
 
     #[test]
     fn a_finished_run_is_not_split() {
-        let runs = Runs::new(UNIT * 20, &[0]);
+        let runs = Runs::new(UNIT * 20, &[0], UNIT);
         assert!(runs.take_first(0).is_some());
         runs.get(0).finish();
         assert!(runs.steal().is_none());
