@@ -186,6 +186,9 @@ impl Runs {
                 kept.push(s);
             }
         }
+        // Half the slots at most, the rest for splits: more workers share
+        // the first runs' units through splits.
+        kept.truncate(MAX_RUNS / 2);
         for (w, &s) in kept.iter().enumerate() {
             let (end, next) = match kept.get(w + 1) {
                 Some(&e) => (e, w + 1),
@@ -455,6 +458,23 @@ mod tests {
                 run: NONE_RUN
             }
         );
+    }
+
+    #[test]
+    fn more_workers_than_run_slots_share_half_the_slots() {
+        let starts: Vec<usize> = (0..200).collect();
+        let runs = Runs::new(UNIT * 200, &starts, 1);
+        assert_eq!(runs.firsts, MAX_RUNS / 2);
+        let last = runs.get(MAX_RUNS / 2 - 1).limit();
+        assert_eq!(
+            last,
+            Limit {
+                unit: 200,
+                run: NONE_RUN
+            }
+        );
+        assert!(runs.take_first(MAX_RUNS / 2).is_none());
+        assert!(runs.take_first(MAX_RUNS / 2 - 1).is_some());
     }
 
     #[test]
