@@ -23,11 +23,11 @@
 //!
 //! A run waits only for the next run's copy, so no run may be reached
 //! past the next by the pairs of the one before it: the workers' first
-//! runs are at least the pairs' reach long ([`Runs::new`]), and a run
-//! split off another counts its copy done only once the run after it has
-//! copied (a split can leave the run below shorter than the reach; its
-//! pairs reaching past the new run were copied by the run after, taken
-//! before any split).
+//! runs are at least the pairs' reach long, or only two ([`Runs::new`]),
+//! and a run split off another counts its copy done only once the run
+//! after it has copied (a split can leave the run below shorter than the
+//! reach; its pairs reaching past the new run were copied by the run
+//! after, taken before any split).
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
@@ -184,6 +184,17 @@ impl Runs {
         for &s in starts {
             if s < units && kept.last().is_none_or(|&l| s >= l + least) {
                 kept.push(s);
+            }
+        }
+        // Two runs are safe whatever their lengths: the first one's pairs
+        // end in the second or past the last particle. A bed whose pairs
+        // reach across it (a periodic one's wrap around) so keeps two.
+        if kept.len() < 2 {
+            let middle = starts.get(starts.len() / 2).copied();
+            if let (Some(&first), Some(s)) = (kept.first(), middle) {
+                if s > first && s < units {
+                    kept.push(s);
+                }
             }
         }
         // Half the slots at most, the rest for splits: more workers share
@@ -458,6 +469,22 @@ mod tests {
                 run: NONE_RUN
             }
         );
+    }
+
+    #[test]
+    fn pairs_reaching_across_the_bed_leave_two_first_runs() {
+        // Three workers, pairs reaching the whole bed (a periodic one):
+        // two runs, split at the middle worker's start.
+        let runs = Runs::new(UNIT * 30, &[0, 10, 20], UNIT * 30);
+        assert_eq!(runs.firsts, 2);
+        assert_eq!(runs.get(0).limit(), Limit { unit: 10, run: 1 });
+        // Two workers: their runs as they were.
+        let runs = Runs::new(UNIT * 30, &[0, 16], UNIT * 30);
+        assert_eq!(runs.firsts, 2);
+        assert_eq!(runs.get(1).first(), 16);
+        // One worker: one run.
+        let runs = Runs::new(UNIT * 30, &[0], UNIT * 30);
+        assert_eq!(runs.firsts, 1);
     }
 
     #[test]
