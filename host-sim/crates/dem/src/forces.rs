@@ -941,6 +941,12 @@ mod tests {
         for workers in [3, 8, 16] {
             same_bits_as_one_worker(workers, &layers, 500);
         }
+        // Layer 1 stored last: the pairs reach across the bed, as a
+        // periodic one's do, and the workers keep two first runs.
+        let across: Vec<usize> = [0].into_iter().chain(2..16).chain([1]).collect();
+        for workers in [3, 8] {
+            same_bits_as_one_worker(workers, &across, 500);
+        }
     }
 }
 
