@@ -29,6 +29,7 @@
 //! reach; its pairs reaching past the new run were copied by the run
 //! after, taken before any split).
 
+use crate::team::Patience;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 /// Particles in a unit.
@@ -304,6 +305,7 @@ impl Runs {
             self.pending.store(NONE_RUN, Ordering::Release);
             return None;
         }
+        let mut patience = Patience::new();
         let answer = loop {
             let a = v.split.load(Ordering::Acquire);
             if a != asked {
@@ -320,7 +322,7 @@ impl Runs {
             if self.abort.load(Ordering::Relaxed) {
                 panic!("a run of the pair pass panicked on another thread");
             }
-            std::hint::spin_loop();
+            patience.pause();
         };
         v.split.store(0, Ordering::Release);
         let split = answer & TAG == ANSWERED;
@@ -360,11 +362,12 @@ impl Runs {
         let Some(run) = self.runs.get(r) else {
             return;
         };
+        let mut patience = Patience::new();
         while !run.copied.load(Ordering::Acquire) {
             if self.abort.load(Ordering::Relaxed) {
                 panic!("a run of the pair pass panicked on another thread");
             }
-            std::hint::spin_loop();
+            patience.pause();
         }
     }
 
