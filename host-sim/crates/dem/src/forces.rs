@@ -13,7 +13,8 @@
 use nalgebra::Vector3;
 
 use super::contact::{
-    ContactForce, ContactGeometry, ContactModel, History, Lanes, Real, HISTORY_LEN, LANE_COUNT,
+    ContactForce, ContactGeometry, HertzMindlin, History, Lanes, PairLaw, Real, HISTORY_LEN,
+    LANE_COUNT,
 };
 use super::neighbour::NeighbourList;
 use super::particles::{Packed, Particles, Sphere};
@@ -120,6 +121,73 @@ fn pair_geometry_lanes<const PERIODIC: bool>(
     )
 }
 
+/// The touching pairs of a chunk as the overlap test found them, in a box
+/// with no periodic axis: i's position minus j's (x, y, z, m) and its
+/// square (m²), a row per value, each pair at its place in the chunk's
+/// touching pairs, so that a batch loads its four as lanes and its chain
+/// starts at the square root, not at the index loads (BENCHMARKS.md, "The
+/// pair pass's geometry"). A periodic pass takes its geometry from the
+/// rows: its overlap test and its geometry find the nearest image by
+/// different operations, and sharing one would change those beds' bits.
+#[repr(C, align(32))]
+struct Apart([[f64; PAIR_CHUNK + LANE_COUNT]; 4]);
+
+/// What the overlap test leaves the evaluation of one chunk: the touching
+/// pairs' slots in the run and their separations. One per run, reused by
+/// its chunks (zeroed for each unit, it cost ≈ 1.5 % of the step).
+struct Chunk {
+    touching: [u32; PAIR_CHUNK],
+    apart: Apart,
+}
+
+impl Chunk {
+    fn new() -> Self {
+        Chunk {
+            touching: [0; PAIR_CHUNK],
+            apart: Apart([[0.0; PAIR_CHUNK + LANE_COUNT]; 4]),
+        }
+    }
+}
+
+/// Geometry of the overlapping pairs (i[l], j[l]) from their separations
+/// `apart[first..first + LANE_COUNT]`.
+#[inline(always)]
+fn pair_geometry_apart(
+    p: &Packed,
+    i: &[usize; LANE_COUNT],
+    j: &[usize; LANE_COUNT],
+    apart: &Apart,
+    first: usize,
+) -> ContactGeometry<Lanes> {
+    let load = |c: usize| Lanes(std::array::from_fn(|l| apart.0[c][first + l]));
+    let dx = Vector3::new(load(0), load(1), load(2));
+    let d2 = load(3);
+    let row = |k: &[usize; LANE_COUNT]| {
+        (
+            k.map(|k| &p.motion[k].0[0]),
+            k.map(|k| &p.motion[k].0[1]),
+            Lanes(k.map(|k| p.sphere[k].0[3])),
+        )
+    };
+    let ((vi, wi, ri), (vj, wj, rj)) = (row(i), row(j));
+    let vec = |q: &[&[f64; 4]; LANE_COUNT]| {
+        Vector3::new(
+            Lanes(q.map(|q| q[0])),
+            Lanes(q.map(|q| q[1])),
+            Lanes(q.map(|q| q[2])),
+        )
+    };
+    let fourth = |q: &[&[f64; 4]; LANE_COUNT]| Lanes(q.map(|q| q[3]));
+    ContactGeometry::spheres_apart(
+        dx,
+        d2,
+        [&vec(&vi), &vec(&vj)],
+        [&vec(&wi), &vec(&wj)],
+        [ri, rj],
+        [fourth(&vi), fourth(&vj)],
+    )
+}
+
 /// Listed pairs evaluated in order: one unit's of a run, or those crossing
 /// into a run (a copy), with their histories and open flags (1 while the
 /// history holds a contact).
@@ -148,18 +216,18 @@ impl<'a> PairRun<'a> {
         }
     }
 
-    /// The overlapping pairs of the run's `slots` into `touching`,
+    /// The overlapping pairs of the run's `slots` into `chunk`,
     /// returning how many; pairs apart are marked closed. No branch on the
     /// outcome: which pairs touch is a coin toss to the branch predictor.
     #[inline(always)]
-    fn sort_out<const PERIODIC: bool>(
+    fn sort_out<L, const PERIODIC: bool>(
         &mut self,
-        packed: &Packed,
-        images: &Images,
+        x: &Inputs<L>,
         slots: std::ops::Range<usize>,
-        touching: &mut [u32; PAIR_CHUNK],
-        far: bool,
+        chunk: &mut Chunk,
     ) -> usize {
+        let Chunk { touching, apart } = chunk;
+        let (packed, images, far) = (x.packed, x.images, x.far);
         let p = &packed.sphere[..];
         let last = self.pj.len().saturating_sub(1);
         let mut count = 0;
@@ -171,10 +239,25 @@ impl<'a> PairRun<'a> {
                 prefetch(p, ahead);
                 prefetch(&packed.motion, ahead);
             }
-            let on = overlapping::<PERIODIC>(p, self.pi[s] as usize, self.pj[s] as usize, images);
+            let on = if PERIODIC {
+                overlapping::<PERIODIC>(p, self.pi[s] as usize, self.pj[s] as usize, images)
+            } else {
+                let (d, d2, on) = p[self.pi[s] as usize].separation(&p[self.pj[s] as usize]);
+                apart.0[0][count] = d.x;
+                apart.0[1][count] = d.y;
+                apart.0[2][count] = d.z;
+                apart.0[3][count] = d2;
+                on
+            };
             touching[count] = s as u32;
             count += usize::from(on);
             self.open[s] &= u8::from(on);
+        }
+        if !PERIODIC && count > 0 {
+            for c in apart.0.iter_mut() {
+                let v = c[count - 1];
+                c[count..count + LANE_COUNT].fill(v);
+            }
         }
         count
     }
@@ -185,15 +268,14 @@ impl<'a> PairRun<'a> {
     /// closed pair's history starts from zero. The last batch repeats its
     /// last pair (the same history in, the same values out).
     #[inline(always)]
-    fn evaluate<const PERIODIC: bool>(
+    fn evaluate<L: PairLaw, const PERIODIC: bool>(
         &mut self,
-        p: &Packed,
-        images: &Images,
-        model: &ContactModel,
-        dt_s: f64,
+        x: &Inputs<L>,
         which: &[u32],
+        apart: &Apart,
         mut put: impl FnMut(usize, usize, ContactForce),
     ) {
+        let (p, images, law, dt_s) = (x.packed, x.images, x.law, x.dt_s);
         let zero = Lanes::splat(0.0);
         let last = which.len().saturating_sub(1);
         #[cfg(feature = "pass-parts")]
@@ -205,7 +287,11 @@ impl<'a> PairRun<'a> {
                 std::array::from_fn(|l| which[(first + l).min(last)] as usize);
             let i = batch.map(|s| self.pi[s] as usize);
             let j = batch.map(|s| self.pj[s] as usize);
-            let g = pair_geometry_lanes::<PERIODIC>(p, &i, &j, images);
+            let g = if PERIODIC {
+                pair_geometry_lanes::<PERIODIC>(p, &i, &j, images)
+            } else {
+                pair_geometry_apart(p, &i, &j, apart, first)
+            };
             // Plain loops: the `array::from_fn` form was left out of line
             // (a call per history component, outside the AVX2 copy).
             let mut h = [zero; HISTORY_LEN];
@@ -221,10 +307,10 @@ impl<'a> PairRun<'a> {
             let f = if parts.law {
                 pass_parts::no_law(&g)
             } else {
-                model.evaluate(&g, dt_s, &mut h)
+                law.evaluate(&g, dt_s, &mut h)
             };
             #[cfg(not(feature = "pass-parts"))]
-            let f = model.evaluate(&g, dt_s, &mut h);
+            let f = law.evaluate(&g, dt_s, &mut h);
             for (l, &s) in batch.iter().enumerate().take(which.len() - first) {
                 self.history[s] = h.map(|c| c.0[l]);
                 self.open[s] = 1;
@@ -393,21 +479,28 @@ impl Shared {
 }
 
 /// Adds contact `cf` (from the first particle's point of view) to a
-/// particle of radius `r_m`, the pair's first or (`second`) its second.
+/// particle of radius `r_m`, the pair's first or (`second`) its second;
+/// its rolling torque only if the law `rolls` ([`PairLaw::ROLLS`]: else
+/// it is zero, and leaving it out changes at most the sign of a torque
+/// sum that is exactly zero).
 #[inline(always)]
 fn add_contact(
     f: &mut Vector3<f64>,
     t: &mut Vector3<f64>,
     cf: &ContactForce,
     r_m: f64,
-    second: bool,
+    (second, rolls): (bool, bool),
 ) {
     if second {
         *f -= cf.force_n;
-        *t += cf.torque_per_radius_n * r_m - cf.rolling_torque_n_m;
     } else {
         *f += cf.force_n;
-        *t += cf.torque_per_radius_n * r_m + cf.rolling_torque_n_m;
+    }
+    let spring = cf.torque_per_radius_n * r_m;
+    match (second, rolls) {
+        (true, true) => *t += spring - cf.rolling_torque_n_m,
+        (false, true) => *t += spring + cf.rolling_torque_n_m,
+        (_, false) => *t += spring,
     }
 }
 
@@ -468,11 +561,11 @@ pub fn use_simd(level: Simd) -> Simd {
 }
 
 /// What every run of the pass reads.
-struct Inputs<'a> {
+struct Inputs<'a, L> {
     p: &'a Particles,
     packed: &'a Packed,
     images: &'a Images,
-    model: &'a ContactModel,
+    law: &'a L,
     dt_s: f64,
     body_accel: Vector3<f64>,
     /// Whether the bed is too large for the caches, so that the pass
@@ -505,33 +598,48 @@ impl PairRun<'_> {
     /// sums of particles `lo..lo + f.len()`, where every second particle
     /// lies): the pairs crossing into a run from below.
     #[inline(always)]
-    fn incoming(&mut self, x: &Inputs, lo: usize, f: &mut [Vector3<f64>], t: &mut [Vector3<f64>]) {
+    fn incoming<L: PairLaw>(
+        &mut self,
+        x: &Inputs<L>,
+        chunk: &mut Chunk,
+        lo: usize,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+    ) {
         if x.images.any() {
-            self.incoming_in::<true>(x, lo, f, t)
+            self.incoming_in::<L, true>(x, chunk, lo, f, t)
         } else {
-            self.incoming_in::<false>(x, lo, f, t)
+            self.incoming_in::<L, false>(x, chunk, lo, f, t)
         }
     }
 
     /// [`PairRun::incoming`] for a box with (`PERIODIC`) or without
     /// periodic axes.
     #[inline(always)]
-    fn incoming_in<const PERIODIC: bool>(
+    fn incoming_in<L: PairLaw, const PERIODIC: bool>(
         &mut self,
-        x: &Inputs,
+        x: &Inputs<L>,
+        chunk: &mut Chunk,
         lo: usize,
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
         let radius = |i: usize| x.packed.sphere[i].0[3];
-        self.each_contact::<PERIODIC>(
+        self.each_contact::<L, PERIODIC>(
             x,
+            chunk,
             lo,
             f,
             t,
             #[inline(always)]
             |f, t, _, j, cf| {
-                add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
+                add_contact(
+                    &mut f[j - lo],
+                    &mut t[j - lo],
+                    &cf,
+                    radius(j),
+                    (true, L::ROLLS),
+                );
             },
         );
     }
@@ -540,20 +648,28 @@ impl PairRun<'_> {
     /// below `lo + f.len()`, to their second (`f`, `t`: the sums from
     /// particle `lo` on).
     #[inline(always)]
-    fn own(&mut self, x: &Inputs, lo: usize, f: &mut [Vector3<f64>], t: &mut [Vector3<f64>]) {
+    fn own<L: PairLaw>(
+        &mut self,
+        x: &Inputs<L>,
+        chunk: &mut Chunk,
+        lo: usize,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+    ) {
         if x.images.any() {
-            self.own_in::<true>(x, lo, f, t)
+            self.own_in::<L, true>(x, chunk, lo, f, t)
         } else {
-            self.own_in::<false>(x, lo, f, t)
+            self.own_in::<L, false>(x, chunk, lo, f, t)
         }
     }
 
     /// [`PairRun::own`] for a box with (`PERIODIC`) or without periodic
     /// axes.
     #[inline(always)]
-    fn own_in<const PERIODIC: bool>(
+    fn own_in<L: PairLaw, const PERIODIC: bool>(
         &mut self,
-        x: &Inputs,
+        x: &Inputs<L>,
+        chunk: &mut Chunk,
         lo: usize,
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
@@ -563,16 +679,30 @@ impl PairRun<'_> {
         // Each pair's result goes straight to both particles, in pair
         // order: a particle's sum sees the same terms in the same order as
         // if the pairs were taken one by one.
-        self.each_contact::<PERIODIC>(
+        self.each_contact::<L, PERIODIC>(
             x,
+            chunk,
             lo,
             f,
             t,
             #[inline(always)]
             |f, t, i, j, cf| {
-                add_contact(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
+                let rolls = L::ROLLS;
+                add_contact(
+                    &mut f[i - lo],
+                    &mut t[i - lo],
+                    &cf,
+                    radius(i),
+                    (false, rolls),
+                );
                 if j < hi {
-                    add_contact(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
+                    add_contact(
+                        &mut f[j - lo],
+                        &mut t[j - lo],
+                        &cf,
+                        radius(j),
+                        (true, rolls),
+                    );
                 }
             },
         );
@@ -582,15 +712,15 @@ impl PairRun<'_> {
     /// a chunk at a time, calling `put(f, t, i, j, force)` for each in pair
     /// order (`f`, `t`: the sums of the run from particle `lo` on).
     #[inline(always)]
-    fn each_contact<const PERIODIC: bool>(
+    fn each_contact<L: PairLaw, const PERIODIC: bool>(
         &mut self,
-        x: &Inputs,
+        x: &Inputs<L>,
+        chunk: &mut Chunk,
         lo: usize,
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
         mut put: impl FnMut(&mut [Vector3<f64>], &mut [Vector3<f64>], usize, usize, ContactForce),
     ) {
-        let mut touching = [0u32; PAIR_CHUNK];
         let pj = self.pj;
         let len = pj.len();
         for s0 in (0..len).step_by(PAIR_CHUNK) {
@@ -606,14 +736,12 @@ impl PairRun<'_> {
                     }
                 }
             }
-            let count = self.sort_out::<PERIODIC>(x.packed, x.images, slots, &mut touching, x.far);
-            let which = &touching[..count];
-            self.evaluate::<PERIODIC>(
-                x.packed,
-                x.images,
-                x.model,
-                x.dt_s,
+            let count = self.sort_out::<L, PERIODIC>(x, slots, chunk);
+            let which = &chunk.touching[..count];
+            self.evaluate::<L, PERIODIC>(
+                x,
                 which,
+                &chunk.apart,
                 #[inline(always)]
                 |i, j, cf| put(f, t, i, j, cf),
             );
@@ -622,20 +750,28 @@ impl PairRun<'_> {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn incoming_avx2(
+    fn incoming_avx2<L: PairLaw>(
         &mut self,
-        x: &Inputs,
+        x: &Inputs<L>,
+        chunk: &mut Chunk,
         lo: usize,
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
-        self.incoming(x, lo, f, t)
+        self.incoming(x, chunk, lo, f, t)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn own_avx2(&mut self, x: &Inputs, lo: usize, f: &mut [Vector3<f64>], t: &mut [Vector3<f64>]) {
-        self.own(x, lo, f, t)
+    fn own_avx2<L: PairLaw>(
+        &mut self,
+        x: &Inputs<L>,
+        chunk: &mut Chunk,
+        lo: usize,
+        f: &mut [Vector3<f64>],
+        t: &mut [Vector3<f64>],
+    ) {
+        self.own(x, chunk, lo, f, t)
     }
 }
 
@@ -646,6 +782,23 @@ impl PairRun<'_> {
 /// them). The workers share the particles in runs ([`crate::runs`]);
 /// returns how many were split off others.
 pub(crate) fn pair_forces(
+    params: &Params,
+    p: &mut Particles,
+    list: (&mut NeighbourList, &mut Schedule),
+    packed: (&Packed, bool),
+    images: &Images,
+    team: &Team,
+) -> usize {
+    // The sand's usual law gets a pass of its own, compiled for it.
+    match HertzMindlin::of(&params.pair_model) {
+        Some(law) => pair_forces_with(&law, params, p, list, packed, images, team),
+        None => pair_forces_with(&params.pair_model, params, p, list, packed, images, team),
+    }
+}
+
+/// [`pair_forces`] with the contact `law` (`params.pair_model`'s).
+fn pair_forces_with<L: PairLaw>(
+    law: &L,
     params: &Params,
     p: &mut Particles,
     (list, schedule): (&mut NeighbourList, &mut Schedule),
@@ -667,7 +820,7 @@ pub(crate) fn pair_forces(
         p,
         packed,
         images,
-        model: &params.pair_model,
+        law,
         dt_s: params.dt_s,
         body_accel: params.gravity_m_s2 * params.buoyancy_factor(),
         far: far(p.len()),
@@ -720,8 +873,8 @@ pub(crate) fn pair_forces(
 }
 
 /// One step's pair pass, as its runs see it.
-struct Pass<'a> {
-    x: &'a Inputs<'a>,
+struct Pass<'a, L> {
+    x: &'a Inputs<'a, L>,
     simd: Simd,
     /// The list's `start`, `pair_i` and `pair_j`.
     list: (&'a [u32], &'a [u32], &'a [u32]),
@@ -731,7 +884,7 @@ struct Pass<'a> {
     shared: &'a Shared,
 }
 
-impl Pass<'_> {
+impl<L: PairLaw> Pass<'_, L> {
     /// Runs `taken`: the pairs crossing into it from below (to their
     /// second particles only), then its units' pairs in order, answering
     /// split requests before each unit; returns the particles it ran.
@@ -746,6 +899,7 @@ impl Pass<'_> {
             }
         }
         let _abort = Abort(self.runs);
+        let mut chunk = Chunk::new();
         let (start, pi, pj) = self.list;
         let (x, runs) = (self.x, self.runs);
         let n = x.p.len();
@@ -795,7 +949,10 @@ impl Pass<'_> {
             let mut crossing = PairRun::of(&ci, &cj, 0..ci.len(), &mut ch, &mut co);
             // SAFETY: particles lo..hi are the run's own.
             let (f, t) = unsafe { self.shared.sums(lo, hi) };
-            dispatch!(self.simd, crossing.incoming_avx2 / incoming(x, lo, f, t));
+            dispatch!(
+                self.simd,
+                crossing.incoming_avx2 / incoming(x, &mut chunk, lo, f, t)
+            );
         } else {
             run.set_copied();
         }
@@ -827,7 +984,7 @@ impl Pass<'_> {
                 )
             };
             let mut own = PairRun::of(pi, pj, ks, h, o);
-            dispatch!(self.simd, own.own_avx2 / own(x, ulo, f, t));
+            dispatch!(self.simd, own.own_avx2 / own(x, &mut chunk, ulo, f, t));
             u += 1;
         }
         run.finish();
@@ -917,6 +1074,61 @@ mod tests {
                 splits
             })
         })
+    }
+
+    /// The pass through the fixed law ([`HertzMindlin`]) and the
+    /// separations of its overlap test gives the bits of the pass through
+    /// the general model and through the spheres' rows (a periodic pass,
+    /// its period far wider than the bed, takes its geometry from the
+    /// rows): forces and torques equal (the fixed law adds no zero rolling
+    /// torque, which may change the sign of a sum that is exactly zero),
+    /// histories bit for bit.
+    #[test]
+    fn the_fixed_law_and_the_tests_separations_give_the_general_bits() {
+        let params = crate::benchmark::params().unwrap();
+        let law = HertzMindlin::of(&params.pair_model).expect("the benchmark's law is fixed");
+        let mut p = Particles::new();
+        for q in 0..16 * 16 * 16 {
+            let (i, j, k) = (q % 16, q / 16 % 16, q / 256);
+            let x = Vector3::new(i as f64, j as f64, k as f64) * 1.98e-3;
+            let f = q as f64;
+            let v = Vector3::new((1.3 * f).sin(), (0.7 * f).cos(), (2.1 * f).sin()) * 0.01;
+            p.push(x, v, 1.0e-3, 2920.0).unwrap();
+        }
+        let mut list = NeighbourList::default();
+        list.build(&p.position_m, &p.radius_m, params.skin_m)
+            .unwrap();
+        let mut packed = Packed::default();
+        p.pack_into(&mut packed);
+        let walled = Images::default();
+        let axis = crate::periodic::PeriodicAxis::new(-1.0, 10.0).unwrap();
+        let wide = Images::new(&[Some(axis), None, None]);
+        let team = Team::alone();
+        let mut schedule = Schedule::default();
+        for _ in 0..3 {
+            let list = (&mut list, &mut schedule);
+            pair_forces(&params, &mut p, list, (&packed, false), &walled, &team);
+        }
+        assert!(list.open.iter().filter(|&&o| o == 1).count() > 10_000);
+        let start = (list.history.clone(), list.open.clone());
+        let mut pass = |fixed: bool, images: &Images| {
+            (list.history, list.open) = start.clone();
+            let lists = (&mut list, &mut schedule);
+            let packed = (&packed, false);
+            if fixed {
+                pair_forces_with(&law, &params, &mut p, lists, packed, images, &team);
+            } else {
+                let model = &params.pair_model;
+                pair_forces_with(model, &params, &mut p, lists, packed, images, &team);
+            }
+            let bits: Vec<[u64; 3]> = (list.history.iter()).map(|h| h.map(f64::to_bits)).collect();
+            (p.force_n.clone(), p.torque_n_m.clone(), bits)
+        };
+        let want = pass(false, &wide);
+        assert!(want.0.iter().all(|f| f.norm() > 0.0));
+        for (fixed, images) in [(false, &walled), (true, &walled), (true, &wide)] {
+            assert!(pass(fixed, images) == want, "fixed {fixed}, {images:?}");
+        }
     }
 
     #[test]

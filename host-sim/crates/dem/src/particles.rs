@@ -59,10 +59,18 @@ impl Sphere {
     /// pass and of the contact count).
     #[inline(always)]
     pub(crate) fn overlaps(&self, other: &Sphere) -> bool {
+        self.separation(other).2
+    }
+
+    /// This sphere's centre minus `other`'s (m), its square (m²), and
+    /// whether the two overlap ([`Sphere::overlaps`]).
+    #[inline(always)]
+    pub(crate) fn separation(&self, other: &Sphere) -> (Vector3<f64>, f64, bool) {
         let (a, b) = (&self.0, &other.0);
         let sum = a[3] + b[3];
         let d = Vector3::new(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
-        d.norm_squared() < sum * sum
+        let d2 = d.norm_squared();
+        (d, d2, d2 < sum * sum)
     }
 
     /// As [`Sphere::overlaps`], `other` at its nearest image.

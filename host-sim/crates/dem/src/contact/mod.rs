@@ -10,7 +10,9 @@
 //!
 //! Each family is an enum over its laws, so the hot loop dispatches with a
 //! `match` (no virtual calls), while every law is its own struct
-//! implementing the family trait.
+//! implementing the family trait; the sand's usual combination is also a
+//! type of its own ([`HertzMindlin`]), for which the pair pass is compiled
+//! without any `match`. Both go through one composition of the laws.
 //!
 //! Every law is written once, generic over its number type ([`Real`]):
 //! `f64` for one contact, or [`Lanes`] for four contacts at once (SIMD over
@@ -224,20 +226,112 @@ impl ContactModel {
         dt_s: f64,
         history: &mut [T; HISTORY_LEN],
     ) -> ContactForce<T> {
-        let normal = self.normal.force(g);
-        let gamma_n = self.damping.coefficient_n_s_per_m(g, &normal);
-        let fn_total = normal.force_n - gamma_n * g.normal_velocity_m_s;
-        // Fncrit as LAMMPS' Hertz: |elastic + damping|.
-        let fncrit = fn_total.simd_abs();
-        let ft = self
-            .tangential
-            .force(g, &normal, gamma_n, fncrit, dt_s, history);
-        let rolling = self.rolling.torque(g, fncrit);
-        ContactForce {
-            force_n: g.normal * fn_total + ft,
-            torque_per_radius_n: -g.normal.cross(&ft),
-            rolling_torque_n_m: rolling,
+        let laws = (&self.normal, &self.damping, &self.tangential, &self.rolling);
+        compose(laws, g, dt_s, history)
+    }
+}
+
+/// The one composition of the four families, in LAMMPS' order, for any
+/// laws: those a [`ContactModel`] chooses at run time, or laws fixed at
+/// compile time ([`HertzMindlin`]).
+#[inline(always)]
+fn compose<T: Real>(
+    (normal, damping, tangential, rolling): (
+        &impl NormalLaw,
+        &impl DampingLaw,
+        &impl TangentialLaw,
+        &impl RollingLaw,
+    ),
+    g: &ContactGeometry<T>,
+    dt_s: f64,
+    history: &mut [T; HISTORY_LEN],
+) -> ContactForce<T> {
+    let elastic = normal.force(g);
+    let gamma_n = damping.coefficient_n_s_per_m(g, &elastic);
+    let fn_total = elastic.force_n - gamma_n * g.normal_velocity_m_s;
+    // Fncrit as LAMMPS' Hertz: |elastic + damping|.
+    let fncrit = fn_total.simd_abs();
+    let ft = tangential.force(g, &elastic, gamma_n, fncrit, dt_s, history);
+    ContactForce {
+        force_n: g.normal * fn_total + ft,
+        torque_per_radius_n: -g.normal.cross(&ft),
+        rolling_torque_n_m: rolling.torque(g, fncrit),
+    }
+}
+
+/// A contact law as the pair pass calls it. The pass is compiled for each
+/// implementation: for any [`ContactModel`], and for [`HertzMindlin`],
+/// whose laws are known at compile time, so that the families' `match`es
+/// and the rolling torque leave its loop.
+pub trait PairLaw: Copy + Sync {
+    /// Whether the law can exert a rolling torque (else its
+    /// `rolling_torque_n_m` is always zero and need not be added).
+    const ROLLS: bool;
+
+    /// As [`ContactModel::evaluate`].
+    fn evaluate<T: Real>(
+        &self,
+        g: &ContactGeometry<T>,
+        dt_s: f64,
+        history: &mut [T; HISTORY_LEN],
+    ) -> ContactForce<T>;
+}
+
+impl PairLaw for ContactModel {
+    const ROLLS: bool = true;
+
+    #[inline(always)]
+    fn evaluate<T: Real>(
+        &self,
+        g: &ContactGeometry<T>,
+        dt_s: f64,
+        history: &mut [T; HISTORY_LEN],
+    ) -> ContactForce<T> {
+        ContactModel::evaluate(self, g, dt_s, history)
+    }
+}
+
+/// Hertz normal, viscoelastic damping, Mindlin tangential, no rolling
+/// resistance: [`ContactModel::hertz_mindlin`] with `rolling_friction` 0,
+/// the sand's usual law, its laws fixed at compile time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HertzMindlin {
+    normal: Hertz,
+    damping: ViscoelasticDamping,
+    tangential: Mindlin,
+}
+
+impl HertzMindlin {
+    /// `model`'s laws, if they are these.
+    pub fn of(model: &ContactModel) -> Option<Self> {
+        match *model {
+            ContactModel {
+                normal: Normal::Hertz(normal),
+                damping: Damping::Viscoelastic(damping),
+                tangential: Tangential::Mindlin(tangential),
+                rolling: Rolling::None(_),
+            } => Some(HertzMindlin {
+                normal,
+                damping,
+                tangential,
+            }),
+            _ => None,
         }
+    }
+}
+
+impl PairLaw for HertzMindlin {
+    const ROLLS: bool = false;
+
+    #[inline(always)]
+    fn evaluate<T: Real>(
+        &self,
+        g: &ContactGeometry<T>,
+        dt_s: f64,
+        history: &mut [T; HISTORY_LEN],
+    ) -> ContactForce<T> {
+        let laws = (&self.normal, &self.damping, &self.tangential, &NoRolling);
+        compose(laws, g, dt_s, history)
     }
 }
 
@@ -255,8 +349,23 @@ impl<T: Real> ContactGeometry<T> {
         m: [T; 2],
     ) -> Self {
         let dx = x[0] - x[1];
+        let d2 = dx.dot(&dx);
+        Self::spheres_apart(dx, d2, v, w, r, m)
+    }
+
+    /// As [`ContactGeometry::spheres`], given i's position minus j's `dx`
+    /// (m) and its square `d2` (m²) in place of the positions.
+    #[inline(always)]
+    pub fn spheres_apart(
+        dx: Vector3<T>,
+        d2: T,
+        v: [&Vector3<T>; 2],
+        w: [&Vector3<T>; 2],
+        r: [T; 2],
+        m: [T; 2],
+    ) -> Self {
         let sum = r[0] + r[1];
-        let d = dx.dot(&dx).simd_sqrt();
+        let d = d2.simd_sqrt();
         let n = dx / d;
         let vr = v[0] - v[1];
         let vn = vr.dot(&n);
@@ -439,6 +548,28 @@ mod tests {
         }
         // Both branches of the Coulomb cap were exercised.
         assert!(slid > 50 && stuck > 50, "slid {slid}, stuck {stuck}");
+    }
+
+    #[test]
+    fn the_fixed_law_stands_for_the_usual_model_only() {
+        let sand = Material {
+            youngs_modulus_pa: 1.0e7,
+            poisson_ratio: 0.3,
+            density_kg_m3: 2920.0,
+        };
+        let usual = ContactModel::hertz_mindlin(&sand, &sand, &ContactSpec::default()).unwrap();
+        assert!(HertzMindlin::of(&usual).is_some());
+        let spec = ContactSpec {
+            rolling_friction: 0.2,
+            ..ContactSpec::default()
+        };
+        let rolling = ContactModel::hertz_mindlin(&sand, &sand, &spec).unwrap();
+        assert!(HertzMindlin::of(&rolling).is_none());
+        let undamped = ContactModel {
+            damping: Damping::None(NoDamping),
+            ..usual
+        };
+        assert!(HertzMindlin::of(&undamped).is_none());
     }
 
     #[test]

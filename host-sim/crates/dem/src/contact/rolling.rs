@@ -19,7 +19,10 @@ pub struct NoRolling;
 impl RollingLaw for NoRolling {
     #[inline(always)]
     fn torque<T: Real>(&self, _g: &ContactGeometry<T>, _fncrit_n: T) -> Vector3<T> {
-        Vector3::repeat(T::splat(0.0))
+        // Built in place: `Vector3::repeat` left the pass's AVX2 copy a
+        // chain of unaligned stack copies per batch.
+        let zero = T::splat(0.0);
+        Vector3::new(zero, zero, zero)
     }
 }
 
