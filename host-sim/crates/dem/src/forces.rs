@@ -77,6 +77,22 @@ fn overlapping<const PERIODIC: bool>(p: &[Sphere], i: usize, j: usize, images: &
     }
 }
 
+/// The first three values of the rows `q`, one row per lane.
+#[inline(always)]
+fn lanes3(q: &[&[f64; 4]; LANE_COUNT]) -> Vector3<Lanes> {
+    Vector3::new(
+        Lanes(q.map(|q| q[0])),
+        Lanes(q.map(|q| q[1])),
+        Lanes(q.map(|q| q[2])),
+    )
+}
+
+/// The fourth value of the rows `q`, one row per lane.
+#[inline(always)]
+fn fourth(q: &[&[f64; 4]; LANE_COUNT]) -> Lanes {
+    Lanes(q.map(|q| q[3]))
+}
+
 /// Geometry of the overlapping pairs (i[l], j[l]), one per lane (with
 /// `PERIODIC`, each j at its nearest image).
 #[inline(always)]
@@ -94,15 +110,7 @@ fn pair_geometry_lanes<const PERIODIC: bool>(
         )
     };
     let ((xi, vi, wi), (xj, vj, wj)) = (row(i), row(j));
-    let vec = |q: &[&[f64; 4]; LANE_COUNT]| {
-        Vector3::new(
-            Lanes(q.map(|q| q[0])),
-            Lanes(q.map(|q| q[1])),
-            Lanes(q.map(|q| q[2])),
-        )
-    };
-    let fourth = |q: &[&[f64; 4]; LANE_COUNT]| Lanes(q.map(|q| q[3]));
-    let mut xj_m = vec(&xj);
+    let mut xj_m = lanes3(&xj);
     if PERIODIC {
         for l in 0..LANE_COUNT {
             let d = [0, 1, 2].map(|a| xj[l][a] - xi[l][a]);
@@ -113,9 +121,9 @@ fn pair_geometry_lanes<const PERIODIC: bool>(
         }
     }
     ContactGeometry::spheres(
-        [&vec(&xi), &xj_m],
-        [&vec(&vi), &vec(&vj)],
-        [&vec(&wi), &vec(&wj)],
+        [&lanes3(&xi), &xj_m],
+        [&lanes3(&vi), &lanes3(&vj)],
+        [&lanes3(&wi), &lanes3(&wj)],
         [fourth(&xi), fourth(&xj)],
         [fourth(&vi), fourth(&vj)],
     )
@@ -170,19 +178,11 @@ fn pair_geometry_apart(
         )
     };
     let ((vi, wi, ri), (vj, wj, rj)) = (row(i), row(j));
-    let vec = |q: &[&[f64; 4]; LANE_COUNT]| {
-        Vector3::new(
-            Lanes(q.map(|q| q[0])),
-            Lanes(q.map(|q| q[1])),
-            Lanes(q.map(|q| q[2])),
-        )
-    };
-    let fourth = |q: &[&[f64; 4]; LANE_COUNT]| Lanes(q.map(|q| q[3]));
     ContactGeometry::spheres_apart(
         dx,
         d2,
-        [&vec(&vi), &vec(&vj)],
-        [&vec(&wi), &vec(&wj)],
+        [&lanes3(&vi), &lanes3(&vj)],
+        [&lanes3(&wi), &lanes3(&wj)],
         [ri, rj],
         [fourth(&vi), fourth(&vj)],
     )
