@@ -17,7 +17,7 @@ use super::contact::{
     LANE_COUNT,
 };
 use super::neighbour::NeighbourList;
-use super::particles::{Packed, Particles, Sphere};
+use super::particles::{Packed, Particles};
 use super::periodic::Images;
 use super::runs::{Runs, Shares, Taken, NONE_RUN, UNIT};
 use super::team::Team;
@@ -63,18 +63,6 @@ fn prefetch<T>(rows: &[T], k: usize) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (rows, k);
-}
-
-/// Whether the spheres i and j overlap (with `PERIODIC`, j at its
-/// nearest image: the pass is compiled once for each, so that a box with
-/// no periodic axis pays nothing for them).
-#[inline(always)]
-fn overlapping<const PERIODIC: bool>(p: &[Sphere], i: usize, j: usize, images: &Images) -> bool {
-    if PERIODIC {
-        p[i].overlaps_nearest(&p[j], images)
-    } else {
-        p[i].overlaps(&p[j])
-    }
 }
 
 /// The first three values of the rows `q`, one row per lane.
@@ -239,10 +227,13 @@ impl<'a> PairRun<'a> {
                 prefetch(p, ahead);
                 prefetch(&packed.motion, ahead);
             }
+            // The pass is compiled once with and once without periodic
+            // axes, so that a box with none pays nothing for them.
+            let (a, b) = (&p[self.pi[s] as usize], &p[self.pj[s] as usize]);
             let on = if PERIODIC {
-                overlapping::<PERIODIC>(p, self.pi[s] as usize, self.pj[s] as usize, images)
+                a.overlaps_nearest(b, images)
             } else {
-                let (d, d2, on) = p[self.pi[s] as usize].separation(&p[self.pj[s] as usize]);
+                let (d, d2, on) = a.separation(b);
                 apart.0[0][count] = d.x;
                 apart.0[1][count] = d.y;
                 apart.0[2][count] = d.z;
@@ -480,16 +471,16 @@ impl Shared {
 
 /// Adds contact `cf` (from the first particle's point of view) to a
 /// particle of radius `r_m`, the pair's first or (`second`) its second;
-/// its rolling torque only if the law `rolls` ([`PairLaw::ROLLS`]: else
+/// its rolling torque only if the law `L` rolls ([`PairLaw::ROLLS`]: else
 /// it is zero, and leaving it out changes at most the sign of a torque
 /// sum that is exactly zero).
 #[inline(always)]
-fn add_contact(
+fn add_contact<L: PairLaw>(
     f: &mut Vector3<f64>,
     t: &mut Vector3<f64>,
     cf: &ContactForce,
     r_m: f64,
-    (second, rolls): (bool, bool),
+    second: bool,
 ) {
     if second {
         *f -= cf.force_n;
@@ -497,7 +488,7 @@ fn add_contact(
         *f += cf.force_n;
     }
     let spring = cf.torque_per_radius_n * r_m;
-    match (second, rolls) {
+    match (second, L::ROLLS) {
         (true, true) => *t += spring - cf.rolling_torque_n_m,
         (false, true) => *t += spring + cf.rolling_torque_n_m,
         (_, false) => *t += spring,
@@ -633,13 +624,7 @@ impl PairRun<'_> {
             t,
             #[inline(always)]
             |f, t, _, j, cf| {
-                add_contact(
-                    &mut f[j - lo],
-                    &mut t[j - lo],
-                    &cf,
-                    radius(j),
-                    (true, L::ROLLS),
-                );
+                add_contact::<L>(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
             },
         );
     }
@@ -687,22 +672,9 @@ impl PairRun<'_> {
             t,
             #[inline(always)]
             |f, t, i, j, cf| {
-                let rolls = L::ROLLS;
-                add_contact(
-                    &mut f[i - lo],
-                    &mut t[i - lo],
-                    &cf,
-                    radius(i),
-                    (false, rolls),
-                );
+                add_contact::<L>(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
                 if j < hi {
-                    add_contact(
-                        &mut f[j - lo],
-                        &mut t[j - lo],
-                        &cf,
-                        radius(j),
-                        (true, rolls),
-                    );
+                    add_contact::<L>(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
                 }
             },
         );

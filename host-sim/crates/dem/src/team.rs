@@ -276,14 +276,14 @@ impl Crew {
     fn help(&self) {
         let mut idle_since = Instant::now();
         let mut spins = 0u32;
-        let mut patience = Patience::new();
+        // Only spins: it goes back to the pool after `LINGER`, long before
+        // a [`Patience`] would yield.
         while !self.stop.load(Ordering::Acquire) {
             if self.take_task(true) {
                 idle_since = Instant::now();
-                patience = Patience::new();
                 continue;
             }
-            patience.pause();
+            std::hint::spin_loop();
             spins = spins.wrapping_add(1);
             if spins.is_multiple_of(64) && idle_since.elapsed() > LINGER {
                 break;
