@@ -567,29 +567,31 @@ struct Inputs<'a, L> {
     preset: bool,
 }
 
-/// Runs `$call` on `$run` in its AVX2 copy when `$simd` says so (the
-/// method's body is inlined into a function compiled for AVX2), else in
-/// the baseline one.
+/// Runs `$run.sums::<$g>(..)` in its AVX2 copy (`sums_avx2`, whose body
+/// is `sums` inlined into a function compiled for AVX2) when `$simd` says
+/// so, else in the baseline one.
 macro_rules! dispatch {
-    ($simd:expr, $run:ident . $avx2:ident / $any:ident ( $($arg:expr),* )) => {{
+    ($simd:expr, $run:ident . sums / < $($g:tt),* > ( $($arg:expr),* )) => {{
         #[cfg(target_arch = "x86_64")]
         if $simd == $crate::Simd::Avx2 {
             // SAFETY: `Simd::Avx2` is chosen only where the CPU has AVX2.
-            unsafe { $run.$avx2($($arg),*) }
+            unsafe { $run.sums_avx2::<$($g),*>($($arg),*) }
         } else {
-            $run.$any($($arg),*)
+            $run.sums::<$($g),*>($($arg),*)
         }
         #[cfg(not(target_arch = "x86_64"))]
-        $run.$any($($arg),*)
+        $run.sums::<$($g),*>($($arg),*)
     }};
 }
 
 impl PairRun<'_> {
-    /// Adds the run's pairs to their second particles only (`f`, `t`: the
-    /// sums of particles `lo..lo + f.len()`, where every second particle
-    /// lies): the pairs crossing into a run from below.
+    /// Adds the run's pairs to the particles of `lo..lo + f.len()` (`f`,
+    /// `t`: their sums): with `OWN`, the run's own pairs, to their first
+    /// particles and to their second where it lies in the range; without,
+    /// the pairs crossing into a run from below, to their second
+    /// particles only (all in the range).
     #[inline(always)]
-    fn incoming<L: PairLaw>(
+    fn sums<L: PairLaw, const OWN: bool>(
         &mut self,
         x: &Inputs<L>,
         chunk: &mut Chunk,
@@ -598,60 +600,16 @@ impl PairRun<'_> {
         t: &mut [Vector3<f64>],
     ) {
         if x.images.any() {
-            self.incoming_in::<L, true>(x, chunk, lo, f, t)
+            self.sums_in::<L, OWN, true>(x, chunk, lo, f, t)
         } else {
-            self.incoming_in::<L, false>(x, chunk, lo, f, t)
+            self.sums_in::<L, OWN, false>(x, chunk, lo, f, t)
         }
     }
 
-    /// [`PairRun::incoming`] for a box with (`PERIODIC`) or without
-    /// periodic axes.
-    #[inline(always)]
-    fn incoming_in<L: PairLaw, const PERIODIC: bool>(
-        &mut self,
-        x: &Inputs<L>,
-        chunk: &mut Chunk,
-        lo: usize,
-        f: &mut [Vector3<f64>],
-        t: &mut [Vector3<f64>],
-    ) {
-        let radius = |i: usize| x.packed.sphere[i].0[3];
-        self.each_contact::<L, PERIODIC>(
-            x,
-            chunk,
-            lo,
-            f,
-            t,
-            #[inline(always)]
-            |f, t, _, j, cf| {
-                add_contact::<L>(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
-            },
-        );
-    }
-
-    /// Adds the run's pairs to their first particles and, where it lies
-    /// below `lo + f.len()`, to their second (`f`, `t`: the sums from
-    /// particle `lo` on).
-    #[inline(always)]
-    fn own<L: PairLaw>(
-        &mut self,
-        x: &Inputs<L>,
-        chunk: &mut Chunk,
-        lo: usize,
-        f: &mut [Vector3<f64>],
-        t: &mut [Vector3<f64>],
-    ) {
-        if x.images.any() {
-            self.own_in::<L, true>(x, chunk, lo, f, t)
-        } else {
-            self.own_in::<L, false>(x, chunk, lo, f, t)
-        }
-    }
-
-    /// [`PairRun::own`] for a box with (`PERIODIC`) or without periodic
+    /// [`PairRun::sums`] for a box with (`PERIODIC`) or without periodic
     /// axes.
     #[inline(always)]
-    fn own_in<L: PairLaw, const PERIODIC: bool>(
+    fn sums_in<L: PairLaw, const OWN: bool, const PERIODIC: bool>(
         &mut self,
         x: &Inputs<L>,
         chunk: &mut Chunk,
@@ -672,8 +630,10 @@ impl PairRun<'_> {
             t,
             #[inline(always)]
             |f, t, i, j, cf| {
-                add_contact::<L>(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
-                if j < hi {
+                if OWN {
+                    add_contact::<L>(&mut f[i - lo], &mut t[i - lo], &cf, radius(i), false);
+                }
+                if !OWN || j < hi {
                     add_contact::<L>(&mut f[j - lo], &mut t[j - lo], &cf, radius(j), true);
                 }
             },
@@ -720,9 +680,10 @@ impl PairRun<'_> {
         }
     }
 
+    /// [`PairRun::sums`] compiled for AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn incoming_avx2<L: PairLaw>(
+    fn sums_avx2<L: PairLaw, const OWN: bool>(
         &mut self,
         x: &Inputs<L>,
         chunk: &mut Chunk,
@@ -730,20 +691,7 @@ impl PairRun<'_> {
         f: &mut [Vector3<f64>],
         t: &mut [Vector3<f64>],
     ) {
-        self.incoming(x, chunk, lo, f, t)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn own_avx2<L: PairLaw>(
-        &mut self,
-        x: &Inputs<L>,
-        chunk: &mut Chunk,
-        lo: usize,
-        f: &mut [Vector3<f64>],
-        t: &mut [Vector3<f64>],
-    ) {
-        self.own(x, chunk, lo, f, t)
+        self.sums::<L, OWN>(x, chunk, lo, f, t)
     }
 }
 
@@ -921,10 +869,7 @@ impl<L: PairLaw> Pass<'_, L> {
             let mut crossing = PairRun::of(&ci, &cj, 0..ci.len(), &mut ch, &mut co);
             // SAFETY: particles lo..hi are the run's own.
             let (f, t) = unsafe { self.shared.sums(lo, hi) };
-            dispatch!(
-                self.simd,
-                crossing.incoming_avx2 / incoming(x, &mut chunk, lo, f, t)
-            );
+            dispatch!(self.simd, crossing.sums / <L, false>(x, &mut chunk, lo, f, t));
         } else {
             run.set_copied();
         }
@@ -956,7 +901,7 @@ impl<L: PairLaw> Pass<'_, L> {
                 )
             };
             let mut own = PairRun::of(pi, pj, ks, h, o);
-            dispatch!(self.simd, own.own_avx2 / own(x, &mut chunk, ulo, f, t));
+            dispatch!(self.simd, own.sums / <L, true>(x, &mut chunk, ulo, f, t));
             u += 1;
         }
         run.finish();
