@@ -88,7 +88,7 @@ pub struct InflationFit {
     /// Starts tried.
     pub starts: usize,
     /// Levenberg–Marquardt iterations of the winning start (at most
-    /// [`lm::Stop::TUBE`]'s cap: reaching it means the curve does not
+    /// [`lm::TUBE`]'s cap: reaching it means the curve does not
     /// determine every coefficient).
     pub iterations: usize,
 }
@@ -228,7 +228,7 @@ pub fn fit_inflation(
     for s in &starts {
         // Nonlinear laws keep their sign pairs (Ogden's μp·αp > 0).
         let held = spec.bounds_from(s).unwrap_or_else(|| bounds.clone());
-        let Some(m) = lm::minimise_until(residuals, s, &held, lm::Stop::TUBE) else {
+        let Some(m) = lm::minimise_until(residuals, s, &held, lm::TUBE) else {
             continue;
         };
         if best.as_ref().is_none_or(|b| m.rss < b.rss) {
@@ -359,7 +359,7 @@ impl InflationReport {
             f.rmse_kpa,
             f.shear_modulus_kpa,
             coeffs.join(", "),
-            if f.iterations >= lm::Stop::TUBE.max_iterations {
+            if f.iterations >= lm::TUBE.max_iterations {
                 " (iteration cap reached: the curve does not determine every coefficient)"
             } else {
                 ""

@@ -21,7 +21,8 @@
 //! - [`coupon`]: reading skin tests of every mode (`shared/data-format.md`);
 //! - [`fit`]: joint least-squares fit, standard errors, per-mode R² and
 //!   RMSE, Drucker stability scan;
-//! - [`lm`]: the bounded Levenberg–Marquardt minimiser;
+//! - [`lm`]: the fits' use of the bounded Levenberg–Marquardt minimiser
+//!   ([`lsq`]), with its stopping rules;
 //! - [`inflation`]: fitting a law to a free inflation, p(D), through the tube;
 //! - [`plot`]: the SVG of data and fits;
 //! - [`report`]: the `fit-skin` command's library side (read, fit, write);

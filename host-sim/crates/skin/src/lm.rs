@@ -1,65 +1,36 @@
-//! A bounded Levenberg–Marquardt least-squares minimiser, for the laws whose
-//! stresses are nonlinear in their coefficients (Ogden's exponents, Gent's
-//! limit) and for the inflation fit.
-//!
-//! Marquardt's scaled damping (JᵀJ + λ·diag JᵀJ)δ = −Jᵀr, each trial
-//! projected onto the bounds; a trial is taken only when it lowers the sum
-//! of squares, so a residual function may refuse a point (return `None`:
-//! outside a law's domain, a tube that cannot be solved) and the step just
-//! shrinks. The Jacobian is by central differences (one-sided at a bound).
+//! The skin fits' use of the bounded Levenberg–Marquardt minimiser
+//! ([`lsq`]): for the laws whose stresses are nonlinear in their
+//! coefficients (Ogden's exponents, Gent's limit) and for the inflation
+//! fit. The Jacobian is by central differences (one-sided at a bound).
 
-use nalgebra::{DMatrix, DVector};
+pub use lsq::{standard_errors, Minimum, Stop};
 
-/// Where the minimiser stopped.
-#[derive(Clone, Debug)]
-pub struct Minimum {
-    /// The coefficients.
-    pub x: Vec<f64>,
-    /// Residuals there.
-    pub residuals: Vec<f64>,
-    /// Their sum of squares.
-    pub rss: f64,
-    /// ∂r/∂x there (rows: residuals, columns: coefficients).
-    pub jacobian: DMatrix<f64>,
-    /// Iterations taken.
-    pub iterations: usize,
-}
+/// Coupon fits: cheap residuals, run to rounding.
+pub const COUPON: Stop = Stop {
+    max_iterations: 400,
+    tolerance: 1e-13,
+};
 
-/// When to stop.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Stop {
-    /// Iteration cap: it bounds a start that wanders along a flat valley
-    /// (an over-parameterised law), where each step still gains a little.
-    pub max_iterations: usize,
-    /// Stop when an accepted step lowers the sum of squares by less than
-    /// this fraction.
-    pub tolerance: f64,
-}
+/// Fits through the tube (each residual solves 40 tubes): to a relative
+/// gain of 1e-9 and at most 60 iterations. The synthetic inflation checks
+/// converge well inside both.
+pub const TUBE: Stop = Stop {
+    max_iterations: 60,
+    tolerance: 1e-9,
+};
 
-impl Stop {
-    /// Coupon fits: cheap residuals, run to rounding.
-    pub const COUPON: Stop = Stop {
-        max_iterations: 400,
-        tolerance: 1e-13,
-    };
-    /// Fits through the tube (each residual solves 40 tubes): to a
-    /// relative gain of 1e-9 and at most 60 iterations. The synthetic
-    /// inflation checks converge well inside both.
-    pub const TUBE: Stop = Stop {
-        max_iterations: 60,
-        tolerance: 1e-9,
-    };
-}
+/// Damping increases tried in an iteration.
+const TRIALS: usize = 16;
 
 /// Minimises Σ r(x)² from `start` within `bounds` ((lower, upper) per
-/// coefficient), to [`Stop::COUPON`]. `None` when the residuals are
-/// refused at the start.
+/// coefficient), to [`COUPON`]. `None` when the residuals are refused at
+/// the start.
 pub fn minimise(
     residuals: impl Fn(&[f64]) -> Option<Vec<f64>>,
     start: &[f64],
     bounds: &[(f64, f64)],
 ) -> Option<Minimum> {
-    minimise_until(residuals, start, bounds, Stop::COUPON)
+    minimise_until(residuals, start, bounds, COUPON)
 }
 
 /// [`minimise`] with its own stopping rule.
@@ -69,204 +40,11 @@ pub fn minimise_until(
     bounds: &[(f64, f64)],
     stop: Stop,
 ) -> Option<Minimum> {
-    let clamp = |x: &[f64]| -> Vec<f64> {
-        x.iter()
-            .zip(bounds)
-            .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
-            .collect()
+    let lm = lsq::Lm {
+        stop,
+        trials: TRIALS,
+        refine: false,
     };
-    let finite = |r: Option<Vec<f64>>| r.filter(|r| r.iter().all(|v| v.is_finite()));
-    let mut x = clamp(start);
-    let mut r = finite(residuals(&x))?;
-    let mut s = ssr(&r);
-    let k = x.len();
-    let mut lambda = 1e-3;
-    let mut iterations = 0;
-    let mut jac = jacobian(&residuals, &x, &r, bounds);
-    while k > 0 && iterations < stop.max_iterations && s > 0.0 {
-        iterations += 1;
-        let jtj = jac.transpose() * &jac;
-        let g = jac.transpose() * DVector::from_column_slice(&r);
-        let top = jtj.diagonal().max().max(1e-300);
-        let mut improved = None;
-        for _ in 0..16 {
-            let mut a = jtj.clone();
-            for i in 0..k {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-12 * top);
-            }
-            let Some(step) = a.cholesky().map(|c| c.solve(&(-&g))) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let trial: Vec<f64> = clamp(
-                &x.iter()
-                    .zip(step.iter())
-                    .map(|(v, d)| v + d)
-                    .collect::<Vec<_>>(),
-            );
-            if let Some(rt) = finite(residuals(&trial)) {
-                let st = ssr(&rt);
-                if st < s {
-                    improved = Some((s - st) / s);
-                    x = trial;
-                    r = rt;
-                    s = st;
-                    lambda = (lambda / 3.0).max(1e-12);
-                    break;
-                }
-            }
-            lambda *= 4.0;
-        }
-        match improved {
-            Some(gain) if gain > stop.tolerance => jac = jacobian(&residuals, &x, &r, bounds),
-            _ => break,
-        }
-    }
-    let jacobian = jacobian(&residuals, &x, &r, bounds);
-    Some(Minimum {
-        x,
-        residuals: r,
-        rss: s,
-        jacobian,
-        iterations,
-    })
-}
-
-fn ssr(r: &[f64]) -> f64 {
-    r.iter().map(|v| v * v).sum()
-}
-
-/// Central differences, one-sided at a bound or where one side is refused;
-/// a column neither side of which can be evaluated is zero.
-fn jacobian(
-    residuals: &impl Fn(&[f64]) -> Option<Vec<f64>>,
-    x: &[f64],
-    r0: &[f64],
-    bounds: &[(f64, f64)],
-) -> DMatrix<f64> {
-    let eval = |x: &[f64]| residuals(x).filter(|r| r.iter().all(|v| v.is_finite()));
-    let cols: Vec<Vec<f64>> = (0..x.len())
-        .map(|j| {
-            let h = 1e-6 * x[j].abs().max(1e-2);
-            let (lo, hi) = bounds[j];
-            let at = |v: f64| {
-                let mut t = x.to_vec();
-                t[j] = v;
-                eval(&t)
-            };
-            let up = (x[j] + h <= hi).then(|| at(x[j] + h)).flatten();
-            let down = (x[j] - h >= lo).then(|| at(x[j] - h)).flatten();
-            match (up, down) {
-                (Some(u), Some(d)) => u.iter().zip(&d).map(|(a, b)| (a - b) / (2.0 * h)).collect(),
-                (Some(u), None) => u.iter().zip(r0).map(|(a, b)| (a - b) / h).collect(),
-                (None, Some(d)) => r0.iter().zip(&d).map(|(a, b)| (a - b) / h).collect(),
-                (None, None) => vec![0.0; r0.len()],
-            }
-        })
-        .collect();
-    DMatrix::from_fn(r0.len(), x.len(), |i, j| cols[j][i])
-}
-
-/// Standard errors s·√((JᵀJ)⁻¹)kk, s² = RSS/(n − p); NaN where JᵀJ is
-/// singular (a coefficient the data do not determine).
-pub fn standard_errors(jacobian: &DMatrix<f64>, rss: f64) -> Vec<f64> {
-    let (n, p) = jacobian.shape();
-    let nan = vec![f64::NAN; p];
-    if n <= p {
-        return nan;
-    }
-    let s2 = rss / (n - p) as f64;
-    // Scale columns to unit norm before inverting (moduli in kPa beside
-    // dimensionless exponents differ by orders of magnitude).
-    let scale: Vec<f64> = jacobian.column_iter().map(|c| c.norm()).collect();
-    if scale
-        .iter()
-        .any(|s| s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !s.is_finite())
-    {
-        return nan;
-    }
-    let mut js = jacobian.clone();
-    for (k, s) in scale.iter().enumerate() {
-        js.column_mut(k).unscale_mut(*s);
-    }
-    let Some(inv) = (js.transpose() * &js).try_inverse() else {
-        return nan;
-    };
-    (0..p)
-        .map(|k| {
-            let v = s2 * inv[(k, k)];
-            if v.is_finite() && v >= 0.0 {
-                v.sqrt() / scale[k]
-            } else {
-                f64::NAN
-            }
-        })
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rosenbrock_reaches_its_minimum() {
-        let f = |x: &[f64]| Some(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]]);
-        let m = minimise(f, &[-1.2, 1.0], &[(-5.0, 5.0), (-5.0, 5.0)]).unwrap();
-        assert!(
-            (m.x[0] - 1.0).abs() < 1e-6 && (m.x[1] - 1.0).abs() < 1e-6,
-            "{:?}",
-            m.x
-        );
-    }
-
-    #[test]
-    fn a_bound_holds_and_refused_points_only_shrink_the_step() {
-        // Unconstrained minimum at 3, bound at 2.
-        let m = minimise(|x| Some(vec![x[0] - 3.0]), &[0.0], &[(0.0, 2.0)]).unwrap();
-        assert_eq!(m.x[0], 2.0);
-        // The residual refuses x > 1.5: the minimiser stays below it and
-        // still gets close to it.
-        let m = minimise(
-            |x| (x[0] <= 1.5).then(|| vec![x[0] - 3.0]),
-            &[0.0],
-            &[(0.0, 10.0)],
-        )
-        .unwrap();
-        assert!(m.x[0] <= 1.5 && m.x[0] > 1.4, "{}", m.x[0]);
-        assert!(minimise(|_| None, &[0.0], &[(0.0, 1.0)]).is_none());
-    }
-
-    #[test]
-    fn exponential_fit_recovers_its_parameters_and_closed_form_errors() {
-        // y = a·e^(b·t) exactly: recovered to rounding.
-        let t: Vec<f64> = (0..20).map(|i| 0.1 * f64::from(i)).collect();
-        let y: Vec<f64> = t.iter().map(|t| 2.5 * (-1.3 * t).exp()).collect();
-        let f = |x: &[f64]| {
-            Some(
-                t.iter()
-                    .zip(&y)
-                    .map(|(t, y)| x[0] * (x[1] * t).exp() - y)
-                    .collect(),
-            )
-        };
-        let m = minimise(f, &[1.0, 0.0], &[(-10.0, 10.0), (-10.0, 10.0)]).unwrap();
-        assert!(
-            (m.x[0] - 2.5).abs() < 1e-8 && (m.x[1] + 1.3).abs() < 1e-8,
-            "{:?}",
-            m.x
-        );
-        // One linear coefficient: se = √(s²/Σφ²) in closed form.
-        let phi: Vec<f64> = t.iter().map(|t| t * t).collect();
-        let yy: Vec<f64> = phi
-            .iter()
-            .enumerate()
-            .map(|(i, p)| 3.0 * p + if i % 2 == 0 { 0.1 } else { -0.1 })
-            .collect();
-        let g = |x: &[f64]| Some(phi.iter().zip(&yy).map(|(p, y)| x[0] * p - y).collect());
-        let m = minimise(g, &[0.0], &[(-10.0, 10.0)]).unwrap();
-        let spp: f64 = phi.iter().map(|p| p * p).sum();
-        let se = (m.rss / 19.0 / spp).sqrt();
-        let got = standard_errors(&m.jacobian, m.rss)[0];
-        assert!((got - se).abs() < 1e-6 * se, "{got} vs {se}");
-    }
+    let jacobian = |x: &[f64], r: &[f64], _| lsq::central_jacobian(&residuals, x, r, bounds);
+    lm.minimise(&residuals, jacobian, start, bounds)
 }

@@ -1,15 +1,16 @@
 //! Calibration: nonlinear least squares of the model's readings against the
 //! measured ones, over the baseline's free parameters and those of the
-//! effects switched on. Levenberg–Marquardt with Marquardt's diagonal
-//! scaling, bounds kept by projection, a forward-difference Jacobian whose
-//! columns are simulated in parallel (rayon), and standard errors from
-//! (JᵀJ)⁻¹·σ², σ² = SSR/(n − p). Never mutates its inputs: returns new
-//! values.
+//! effects switched on. Levenberg–Marquardt ([`lsq`]) with Marquardt's
+//! diagonal scaling, bounds kept by projection, a forward-difference
+//! Jacobian whose columns are simulated in parallel (rayon), refined to
+//! central differences where it stops making progress, and standard
+//! errors from (JᵀJ)⁻¹·σ², σ² = SSR/(n − p). Never mutates its inputs:
+//! returns new values.
 
 use std::sync::Arc;
 
 use anyhow::Result;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -225,10 +226,6 @@ fn residuals(
     r.iter().all(|x| x.is_finite()).then_some(r)
 }
 
-fn ssr(r: &[f64]) -> f64 {
-    r.iter().map(|x| x * x).sum()
-}
-
 /// Forward-difference step for a parameter at `value`: small against its
 /// size and its range, and turned inward at the upper bound.
 fn fd_step(spec: &ParamSpec, value: f64) -> f64 {
@@ -293,74 +290,44 @@ pub fn calibrate(
     mask: Option<&[bool]>,
     options: FitOptions,
 ) -> Result<Fit> {
-    let mut theta: Vec<f64> = space
-        .start()
-        .iter()
-        .zip(&space.free)
-        .map(|(v, (_, s))| s.clamp(*v))
-        .collect();
-    let mut r = residuals(space, &theta, data, mask).ok_or_else(|| {
-        anyhow::anyhow!("the model gives no finite prediction at its starting point")
-    })?;
-    let mut s = ssr(&r);
-    let k = theta.len();
-    let mut lambda = 1e-3;
-    let mut iterations = 0;
-    let mut jac = DMatrix::zeros(r.len(), k);
-    // Forward differences while they make progress; where they stop, the
-    // fit may lie in a curved valley whose floor a forward difference's
-    // O(h) error hides (a bubble beside the skin's stiffening: 4.54 mL
-    // with forward differences, 4.68 with central ones at a lower SSR, for
-    // a true 5), so it goes on with central differences and stops only
-    // when those make no progress either.
-    let mut difference = Difference::Forward;
-    while k > 0 && iterations < options.max_iterations {
-        iterations += 1;
-        jac = jacobian(space, &theta, &r, data, mask, difference);
-        let jtj = jac.transpose() * &jac;
-        let g = jac.transpose() * DVector::from_column_slice(&r);
-        let scale = jtj.diagonal().max().max(1e-300);
-        let mut improved = false;
-        for _ in 0..12 {
-            let mut a = jtj.clone();
-            for i in 0..k {
-                // Marquardt scaling, floored so a dead column stays put.
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-12 * scale);
-            }
-            let Some(step) = a.cholesky().map(|c| c.solve(&(-&g))) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let trial: Vec<f64> = theta
-                .iter()
-                .zip(step.iter())
-                .zip(&space.free)
-                .map(|((t, d), (_, spec))| spec.clamp(t + d))
-                .collect();
-            if let Some(rt) = residuals(space, &trial, data, mask) {
-                let st = ssr(&rt);
-                if st < s {
-                    let gain = (s - st) / s.max(1e-300);
-                    theta = trial;
-                    r = rt;
-                    s = st;
-                    lambda = (lambda / 3.0).max(1e-12);
-                    improved = gain > options.tolerance;
-                    break;
-                }
-            }
-            lambda *= 4.0;
-        }
-        if !improved {
-            if difference == Difference::Central || !options.refine_central {
-                break;
-            }
-            difference = Difference::Central;
-        }
-    }
-    if k > 0 {
-        jac = jacobian(space, &theta, &r, data, mask, difference);
-    }
+    let bounds: Vec<(f64, f64)> = space.free.iter().map(|(_, s)| (s.lower, s.upper)).collect();
+    let lm = lsq::Lm {
+        stop: lsq::Stop {
+            max_iterations: options.max_iterations,
+            tolerance: options.tolerance,
+        },
+        trials: 12,
+        // Forward differences while they make progress; where they stop,
+        // the fit may lie in a curved valley whose floor a forward
+        // difference's O(h) error hides (a bubble beside the skin's
+        // stiffening: 4.54 mL with forward differences, 4.68 with central
+        // ones at a lower SSR, for a true 5), so it goes on with central
+        // differences and stops only when those make no progress either.
+        refine: options.refine_central,
+    };
+    let differenced = |theta: &[f64], r: &[f64], d: lsq::Differences| {
+        let difference = match d {
+            lsq::Differences::First => Difference::Forward,
+            lsq::Differences::Refined => Difference::Central,
+        };
+        jacobian(space, theta, r, data, mask, difference)
+    };
+    let lsq::Minimum {
+        x: theta,
+        residuals: r,
+        rss: s,
+        jacobian: jac,
+        iterations,
+    } = lm
+        .minimise(
+            |theta| residuals(space, theta, data, mask),
+            differenced,
+            &space.start(),
+            &bounds,
+        )
+        .ok_or_else(|| {
+            anyhow::anyhow!("the model gives no finite prediction at its starting point")
+        })?;
     let n = r.len();
     let params = uncertainties(space, &theta, &jac, s, n);
     Ok(Fit {
