@@ -10,6 +10,7 @@
 use std::sync::Arc;
 
 use anyhow::Result;
+use lsq::Differences;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -237,24 +238,18 @@ fn fd_step(spec: &ParamSpec, value: f64) -> f64 {
     }
 }
 
-/// How the Jacobian's columns are differenced.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Difference {
-    /// (r(θ + h) − r(θ)) / h: one model evaluation a column, error O(h).
-    Forward,
-    /// (r(θ + h) − r(θ − h)) / 2h: two a column, error O(h²); forward
-    /// where θ − h leaves the range.
-    Central,
-}
-
-/// Jacobian columns (∂r/∂θj), computed in parallel.
+/// Jacobian columns (∂r/∂θj), computed in parallel: with
+/// [`Differences::First`], forward, (r(θ + h) − r(θ)) / h, one model
+/// evaluation a column, error O(h); with [`Differences::Refined`],
+/// central, (r(θ + h) − r(θ − h)) / 2h, two a column, error O(h²), forward
+/// where θ − h leaves the range.
 fn jacobian(
     space: &FitSpace,
     theta: &[f64],
     r0: &[f64],
     data: &Dataset,
     mask: Option<&[bool]>,
-    difference: Difference,
+    differences: Differences,
 ) -> DMatrix<f64> {
     let cols: Vec<Vec<f64>> = (0..theta.len())
         .into_par_iter()
@@ -267,7 +262,7 @@ fn jacobian(
                 return vec![0.0; r0.len()];
             };
             t[j] = theta[j] - h;
-            let minus = (difference == Difference::Central && spec.clamp(t[j]) == t[j])
+            let minus = (differences == Differences::Refined && spec.clamp(t[j]) == t[j])
                 .then(|| residuals(space, &t, data, mask))
                 .flatten();
             match minus {
@@ -305,13 +300,8 @@ pub fn calibrate(
         // differences and stops only when those make no progress either.
         refine: options.refine_central,
     };
-    let differenced = |theta: &[f64], r: &[f64], d: lsq::Differences| {
-        let difference = match d {
-            lsq::Differences::First => Difference::Forward,
-            lsq::Differences::Refined => Difference::Central,
-        };
-        jacobian(space, theta, r, data, mask, difference)
-    };
+    let differenced =
+        |theta: &[f64], r: &[f64], d: Differences| jacobian(space, theta, r, data, mask, d);
     let lsq::Minimum {
         x: theta,
         residuals: r,
