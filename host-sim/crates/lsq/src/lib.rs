@@ -179,39 +179,121 @@ pub fn central_jacobian(
     DMatrix::from_fn(r0.len(), x.len(), |i, j| cols[j][i])
 }
 
-/// Standard errors s·√((JᵀJ)⁻¹)kk, s² = RSS/(n − p); NaN where JᵀJ is
-/// singular (a coefficient the data do not determine).
-pub fn standard_errors(jacobian: &DMatrix<f64>, rss: f64) -> Vec<f64> {
-    let (n, p) = jacobian.shape();
-    let nan = vec![f64::NAN; p];
-    if n <= p {
-        return nan;
+/// Standard errors σ·√((JᵀJ)⁻¹)ₖₖ, σ² = `rss`/(n − p) over the n rows
+/// of `jacobian` and the p coefficients the data determine; `None` for the
+/// others: a column with no effect on the residuals, and every coefficient
+/// with a share in a combination the data leave free (two that trade off
+/// exactly, as a sand law's depth power against wall arching on runs at
+/// two depths). Only those: a coefficient outside the combination keeps
+/// its standard error, which an inverse of the whole of JᵀJ would lose
+/// with the rest. Computed from the eigenvectors of JᵀJ with its columns
+/// scaled to unit length, so that "free" does not depend on the
+/// coefficients' units (moduli in kPa beside dimensionless exponents);
+/// where JᵀJ is regular this is its inverse's diagonal. All `None` when
+/// there are no more rows than determined coefficients.
+pub fn standard_errors(jacobian: &DMatrix<f64>, rss: f64) -> Vec<Option<f64>> {
+    let (n, k) = jacobian.shape();
+    let norms: Vec<f64> = jacobian.column_iter().map(|c| c.norm()).collect();
+    let top = norms.iter().copied().fold(0.0, f64::max);
+    let live: Vec<usize> = (0..k)
+        .filter(|&j| norms[j] > 1e-9 * top.max(1e-300))
+        .collect();
+    let mut se = vec![None; k];
+    if live.is_empty() || n <= live.len() || !rss.is_finite() {
+        return se;
     }
-    let s2 = rss / (n - p) as f64;
-    // Scale columns to unit norm before inverting (moduli in kPa beside
-    // dimensionless exponents differ by orders of magnitude).
-    let scale: Vec<f64> = jacobian.column_iter().map(|c| c.norm()).collect();
-    if scale
-        .iter()
-        .any(|s| s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !s.is_finite())
-    {
-        return nan;
-    }
-    let mut js = jacobian.clone();
-    for (k, s) in scale.iter().enumerate() {
-        js.column_mut(k).unscale_mut(*s);
-    }
-    let Some(inv) = (js.transpose() * &js).try_inverse() else {
-        return nan;
-    };
-    (0..p)
-        .map(|k| {
-            let v = s2 * inv[(k, k)];
-            if v.is_finite() && v >= 0.0 {
-                v.sqrt() / scale[k]
+    let sigma2 = rss / (n - live.len()) as f64;
+    let scaled = DMatrix::from_fn(n, live.len(), |i, a| {
+        jacobian[(i, live[a])] / norms[live[a]]
+    });
+    let eigen = (scaled.transpose() * &scaled).symmetric_eigen();
+    let largest = eigen.eigenvalues.iter().copied().fold(0.0, f64::max);
+    // Directions the data leave free: eigenvalues at the rounding level of
+    // a unit-diagonal JᵀJ of a differenced Jacobian.
+    let free = |lambda: f64| lambda.is_nan() || lambda <= FREE_EIGENVALUE * largest;
+    for (a, &j) in live.iter().enumerate() {
+        let mut var = 0.0;
+        let mut share_free = 0.0;
+        for (m, &lambda) in eigen.eigenvalues.iter().enumerate() {
+            let v2 = eigen.eigenvectors[(a, m)].powi(2);
+            if free(lambda) {
+                share_free += v2;
             } else {
-                f64::NAN
+                var += v2 / lambda;
             }
-        })
-        .collect()
+        }
+        let var = var * sigma2 / (norms[j] * norms[j]);
+        if share_free < FREE_SHARE && var.is_finite() && var >= 0.0 {
+            se[j] = Some(var.sqrt());
+        }
+    }
+    se
+}
+
+/// Eigenvalue of the unit-diagonal JᵀJ, relative to its largest, below
+/// which a direction counts as left free by the data (a condition number
+/// of J of 10⁶).
+const FREE_EIGENVALUE: f64 = 1e-12;
+
+/// Share of a coefficient's unit vector in the free directions above which
+/// it is not determined.
+const FREE_SHARE: f64 = 1e-6;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pair_that_trades_off_leaves_the_others_determined() {
+        // a on the even rows, b on the odd ones (orthogonal); the second
+        // column is 2a: it trades off exactly with the first.
+        let rows = 50;
+        let a = |i: usize| {
+            if i.is_multiple_of(2) {
+                0.1 * (i + 1) as f64
+            } else {
+                0.0
+            }
+        };
+        let b = |i: usize| {
+            if !i.is_multiple_of(2) {
+                0.5 + 0.01 * i as f64
+            } else {
+                0.0
+            }
+        };
+        let jac = DMatrix::from_fn(rows, 3, |i, j| match j {
+            0 => a(i),
+            1 => 2.0 * a(i),
+            _ => b(i),
+        });
+        let rss = 4.7;
+        let se = standard_errors(&jac, rss);
+        assert_eq!(se[0], None);
+        assert_eq!(se[1], None);
+        // b is orthogonal to the pair, which counts once among the
+        // determined: σ/‖b‖, σ² = RSS/(n − 3).
+        let want = (rss / (rows - 3) as f64).sqrt() / jac.column(2).norm();
+        let got = se[2].expect("b is determined");
+        assert!((got - want).abs() < 1e-9 * want, "{got} vs {want}");
+        // a and a + b: JᵀJ is regular, and the errors are its inverse's
+        // diagonal.
+        let two = DMatrix::from_fn(rows, 2, |i, j| a(i) + j as f64 * b(i));
+        let inv = (two.transpose() * &two).try_inverse().unwrap();
+        for (j, s) in standard_errors(&two, rss).iter().enumerate() {
+            let want = (inv[(j, j)] * rss / (rows - 2) as f64).sqrt();
+            let got = s.expect("determined");
+            assert!((got - want).abs() < 1e-9 * want, "{j}: {got} vs {want}");
+        }
+    }
+
+    #[test]
+    fn no_effect_or_too_few_rows_determine_nothing() {
+        let zero = DMatrix::from_fn(10, 2, |i, j| if j == 0 { i as f64 } else { 0.0 });
+        let se = standard_errors(&zero, 1.0);
+        assert!(se[0].is_some());
+        assert_eq!(se[1], None);
+        let square = DMatrix::from_fn(2, 2, |i, j| if i == j { 1.0 } else { 0.0 });
+        assert_eq!(standard_errors(&square, 1.0), vec![None, None]);
+    }
 }

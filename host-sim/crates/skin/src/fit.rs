@@ -121,9 +121,9 @@ pub struct LawFit {
     pub parameter_names: &'static [&'static str],
     /// Fitted coefficients, units as in their names.
     pub parameters: Vec<f64>,
-    /// Their standard errors, from s²·(JᵀJ)⁻¹ (NaN, `null` in JSON, where
-    /// the data do not determine a coefficient).
-    pub standard_errors: Vec<f64>,
+    /// Their standard errors, from s²·(JᵀJ)⁻¹ (`None`, `null` in JSON,
+    /// where the data do not determine a coefficient).
+    pub standard_errors: Vec<Option<f64>>,
     /// Small-strain shear modulus of the fitted law (kPa).
     pub shear_modulus_kpa: f64,
     /// Coefficient of determination on nominal stress over every fitted
@@ -273,10 +273,9 @@ fn design_matrix(
     j.iter().all(|v| v.is_finite()).then_some(j)
 }
 
-/// Linear least squares by QR of the column-scaled J: (coefficients,
-/// standard errors); `None` when J is rank-deficient.
-fn linear_solve(j: &DMatrix<f64>, y: &DVector<f64>) -> Option<(Vec<f64>, Vec<f64>)> {
-    let (n, p) = j.shape();
+/// Linear least squares by QR of the column-scaled J: the coefficients
+/// and their residual sum of squares; `None` when J is rank-deficient.
+fn linear_solve(j: &DMatrix<f64>, y: &DVector<f64>) -> Option<(Vec<f64>, f64)> {
     // Scale columns to unit norm: the Yeoh columns differ by orders of
     // magnitude at large stretch, and scaling keeps R well conditioned.
     let scale: Vec<f64> = j.column_iter().map(|c| c.norm()).collect();
@@ -295,19 +294,9 @@ fn linear_solve(j: &DMatrix<f64>, y: &DVector<f64>) -> Option<(Vec<f64>, Vec<f64
     }
     let qty = qr.q().transpose() * y;
     let cs = r.solve_upper_triangular(&qty)?;
-    let r_inv = r.solve_upper_triangular(&DMatrix::identity(p, p))?;
-    let cov_scaled = &r_inv * r_inv.transpose();
-    let params: Vec<f64> = (0..p).map(|k| cs[k] / scale[k]).collect();
+    let params: Vec<f64> = cs.iter().zip(&scale).map(|(c, s)| c / s).collect();
     let rss = (y - j * DVector::from_column_slice(&params)).norm_squared();
-    let s2 = if n > p {
-        rss / (n - p) as f64
-    } else {
-        f64::NAN
-    };
-    let errors = (0..p)
-        .map(|k| (s2 * cov_scaled[(k, k)]).sqrt() / scale[k])
-        .collect();
-    Some((params, errors))
+    Some((params, rss))
 }
 
 /// Fits one law to `tests` (every mode they hold, jointly) by least
@@ -355,8 +344,8 @@ pub fn fit_law(spec: &'static LawSpec, tests: &[CouponTest]) -> Result<LawFit, F
             let all: Vec<usize> = (0..p).collect();
             let j = design_matrix(spec, &rows, &all, &vec![0.0; p]).ok_or_else(rank_err)?;
             let j = DMatrix::from_diagonal(&w) * j;
-            let (params, errors) = linear_solve(&j, &yw).ok_or_else(rank_err)?;
-            (params, errors, 1)
+            let (params, rss) = linear_solve(&j, &yw).ok_or_else(rank_err)?;
+            (params, lm::standard_errors(&j, rss), 1)
         }
         Form::Nonlinear {
             bounds,
@@ -584,7 +573,7 @@ mod tests {
         let rss: f64 = phi.iter().zip(&y).map(|(p, v)| (v - c * p).powi(2)).sum();
         let se = (rss / 7.0 / spp).sqrt();
         assert!((fit.parameters[0] - c).abs() < 1e-10 * c);
-        assert!((fit.standard_errors[0] - se).abs() < 1e-10 * se);
+        assert!((fit.standard_errors[0].unwrap() - se).abs() < 1e-10 * se);
         assert!((fit.rmse_kpa - (rss / 8.0).sqrt()).abs() < 1e-12);
     }
 

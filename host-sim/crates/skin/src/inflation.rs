@@ -75,8 +75,8 @@ pub struct InflationFit {
     pub parameter_names: &'static [&'static str],
     /// Fitted coefficients.
     pub parameters: Vec<f64>,
-    /// Their standard errors (NaN, `null` in JSON, where undetermined).
-    pub standard_errors: Vec<f64>,
+    /// Their standard errors (`None`, `null` in JSON, where undetermined).
+    pub standard_errors: Vec<Option<f64>>,
     /// Small-strain shear modulus of the fitted law (kPa).
     pub shear_modulus_kpa: f64,
     /// 1 − RSS/TSS of the pressure over the bins.
@@ -349,7 +349,10 @@ impl InflationReport {
             .parameter_names
             .iter()
             .zip(f.parameters.iter().zip(&f.standard_errors))
-            .map(|(n, (v, se))| format!("{n}={v:.5} ± {se:.2e}"))
+            .map(|(n, (v, se))| match se {
+                Some(se) => format!("{n}={v:.5} ± {se:.2e}"),
+                None => format!("{n}={v:.5} (undetermined)"),
+            })
             .collect();
         let _ = writeln!(
             out,

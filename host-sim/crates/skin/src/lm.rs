@@ -111,7 +111,7 @@ mod tests {
         let m = minimise(g, &[0.0], &[(-10.0, 10.0)]).unwrap();
         let spp: f64 = phi.iter().map(|p| p * p).sum();
         let se = (m.rss / 19.0 / spp).sqrt();
-        let got = standard_errors(&m.jacobian, m.rss)[0];
+        let got = standard_errors(&m.jacobian, m.rss)[0].unwrap();
         assert!((got - se).abs() < 1e-6 * se, "{got} vs {se}");
     }
 }

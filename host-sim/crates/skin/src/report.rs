@@ -214,7 +214,11 @@ impl FitSkinReport {
                 .iter()
                 .zip(f.parameters.iter().zip(&f.standard_errors))
                 .map(|(n, (v, se))| {
-                    format!("{}={} ± {}", n.trim_end_matches("_kpa"), sig(*v), sig(*se))
+                    let n = n.trim_end_matches("_kpa");
+                    match se {
+                        Some(se) => format!("{n}={} ± {}", sig(*v), sig(*se)),
+                        None => format!("{n}={} (undetermined)", sig(*v)),
+                    }
                 })
                 .collect();
             let s = &f.stability;

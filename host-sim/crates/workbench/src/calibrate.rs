@@ -319,7 +319,7 @@ pub fn calibrate(
             anyhow::anyhow!("the model gives no finite prediction at its starting point")
         })?;
     let n = r.len();
-    let params = uncertainties(space, &theta, &jac, s, n);
+    let params = uncertainties(space, &theta, &jac, s);
     Ok(Fit {
         space: space.at(&theta),
         theta,
@@ -332,75 +332,15 @@ pub fn calibrate(
     })
 }
 
-/// Standard errors σ·√((JᵀJ)⁻¹)ⱼⱼ, σ² = `ssr`/(n − p), of the parameters
-/// the data determine; `None` for the others: a column with no effect on
-/// the residual, and every parameter with a share in a combination the
-/// data leave free (two that trade off exactly, as a sand law's depth
-/// power against wall arching on runs at two depths). Only those: a
-/// parameter outside the combination keeps its standard error, which an
-/// inverse of the whole of JᵀJ would lose with the rest. Computed from
-/// the eigenvectors of JᵀJ with its columns scaled to unit length, so that
-/// "free" does not depend on the parameters' units; where JᵀJ is regular
-/// this is its inverse's diagonal.
-pub fn standard_errors(jac: &DMatrix<f64>, ssr: f64, n: usize) -> Vec<Option<f64>> {
-    let k = jac.ncols();
-    let norms: Vec<f64> = (0..k).map(|j| jac.column(j).norm()).collect();
-    let top = norms.iter().copied().fold(0.0, f64::max);
-    let live: Vec<usize> = (0..k)
-        .filter(|&j| norms[j] > 1e-9 * top.max(1e-300))
-        .collect();
-    let mut se = vec![None; k];
-    if live.is_empty() {
-        return se;
-    }
-    let dof = n.saturating_sub(live.len()).max(1) as f64;
-    let sigma2 = ssr / dof;
-    let scaled = DMatrix::from_fn(jac.nrows(), live.len(), |i, a| {
-        jac[(i, live[a])] / norms[live[a]]
-    });
-    let eigen = (scaled.transpose() * &scaled).symmetric_eigen();
-    let largest = eigen.eigenvalues.iter().copied().fold(0.0, f64::max);
-    // Directions the data leave free: eigenvalues at the rounding level of
-    // a unit-diagonal JᵀJ of a forward-difference Jacobian.
-    let free = |lambda: f64| lambda.is_nan() || lambda <= FREE_EIGENVALUE * largest;
-    for (a, &j) in live.iter().enumerate() {
-        let mut var = 0.0;
-        let mut share_free = 0.0;
-        for (m, &lambda) in eigen.eigenvalues.iter().enumerate() {
-            let v2 = eigen.eigenvectors[(a, m)].powi(2);
-            if free(lambda) {
-                share_free += v2;
-            } else {
-                var += v2 / lambda;
-            }
-        }
-        let var = var * sigma2 / (norms[j] * norms[j]);
-        if share_free < FREE_SHARE && var.is_finite() {
-            se[j] = Some(var.sqrt());
-        }
-    }
-    se
-}
-
-/// Eigenvalue of the unit-diagonal JᵀJ, relative to its largest, below
-/// which a direction counts as left free by the data (a condition number
-/// of J of 10⁶).
-const FREE_EIGENVALUE: f64 = 1e-12;
-
-/// Share of a parameter's unit vector in the free directions above which
-/// it is not determined.
-const FREE_SHARE: f64 = 1e-6;
-
 /// Standard errors from (JᵀJ)⁻¹σ² over the parameters the data determine.
 fn uncertainties(
     space: &FitSpace,
     theta: &[f64],
     jac: &DMatrix<f64>,
     ssr: f64,
-    n: usize,
 ) -> Vec<FittedParam> {
     let names = space.names();
-    let se = standard_errors(jac, ssr, n);
+    let se = lsq::standard_errors(jac, ssr);
     theta
         .iter()
         .enumerate()
@@ -473,47 +413,5 @@ mod tests {
         // The inputs are untouched; the fit carries its own copy.
         assert_eq!(space.start()[3], 0.0);
         assert!((fit.space.start()[3] - 0.25).abs() < 1e-3);
-    }
-    #[test]
-    fn a_pair_that_trades_off_leaves_the_others_determined() {
-        // a on the even rows, b on the odd ones (orthogonal); the second
-        // column is 2a: it trades off exactly with the first.
-        let rows = 50;
-        let a = |i: usize| {
-            if i.is_multiple_of(2) {
-                0.1 * (i + 1) as f64
-            } else {
-                0.0
-            }
-        };
-        let b = |i: usize| {
-            if !i.is_multiple_of(2) {
-                0.5 + 0.01 * i as f64
-            } else {
-                0.0
-            }
-        };
-        let jac = DMatrix::from_fn(rows, 3, |i, j| match j {
-            0 => a(i),
-            1 => 2.0 * a(i),
-            _ => b(i),
-        });
-        let (ssr, n) = (4.7, rows);
-        let se = standard_errors(&jac, ssr, n);
-        assert_eq!(se[0], None);
-        assert_eq!(se[1], None);
-        // b is orthogonal to the pair: σ/‖b‖, σ² = SSR/(n − 3).
-        let want = (ssr / (n - 3) as f64).sqrt() / jac.column(2).norm();
-        let got = se[2].expect("b is determined");
-        assert!((got - want).abs() < 1e-9 * want, "{got} vs {want}");
-        // a and a + b: JᵀJ is regular, and the errors are its inverse's
-        // diagonal.
-        let two = DMatrix::from_fn(rows, 2, |i, j| a(i) + j as f64 * b(i));
-        let inv = (two.transpose() * &two).try_inverse().unwrap();
-        for (j, s) in standard_errors(&two, ssr, n).iter().enumerate() {
-            let want = (inv[(j, j)] * ssr / (n - 2) as f64).sqrt();
-            let got = s.expect("determined");
-            assert!((got - want).abs() < 1e-9 * want, "{j}: {got} vs {want}");
-        }
     }
 }
