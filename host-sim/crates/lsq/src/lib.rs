@@ -87,11 +87,15 @@ impl Lm {
         let mut lambda = 1e-3;
         let mut iterations = 0;
         let mut differences = Differences::First;
+        // ∂r/∂x at `x` with `differences`, kept until either changes: an
+        // iteration that takes no step leaves it current for the result
+        // (each costs the problem 2k or more residual evaluations).
+        let mut jac: Option<DMatrix<f64>> = None;
         while k > 0 && iterations < self.stop.max_iterations && s > 0.0 {
             iterations += 1;
-            let jac = jacobian(&x, &r, differences);
-            let jtj = jac.transpose() * &jac;
-            let g = jac.transpose() * DVector::from_column_slice(&r);
+            let j = jac.get_or_insert_with(|| jacobian(&x, &r, differences));
+            let jtj = j.transpose() * &*j;
+            let g = j.transpose() * DVector::from_column_slice(&r);
             let top = jtj.diagonal().max().max(1e-300);
             let mut improved = None;
             for _ in 0..self.trials {
@@ -117,6 +121,7 @@ impl Lm {
                         x = trial;
                         r = rt;
                         s = st;
+                        jac = None;
                         lambda = (lambda / 3.0).max(1e-12);
                         break;
                     }
@@ -127,11 +132,12 @@ impl Lm {
                 Some(gain) if gain > self.stop.tolerance => {}
                 _ if self.refine && differences == Differences::First => {
                     differences = Differences::Refined;
+                    jac = None;
                 }
                 _ => break,
             }
         }
-        let jacobian = jacobian(&x, &r, differences);
+        let jacobian = jac.unwrap_or_else(|| jacobian(&x, &r, differences));
         Some(Minimum {
             x,
             residuals: r,
@@ -285,6 +291,47 @@ mod tests {
             let got = s.expect("determined");
             assert!((got - want).abs() < 1e-9 * want, "{j}: {got} vs {want}");
         }
+    }
+
+    #[test]
+    fn the_jacobian_is_differenced_once_per_point_and_kind() {
+        // A curved one-coefficient problem, refined at the end: every
+        // (x, differences) the minimiser asks a Jacobian for is new.
+        let t: Vec<f64> = (0..20).map(|i| 0.1 * i as f64).collect();
+        let y: Vec<f64> = t.iter().map(|t| (0.7 * t).exp() + 0.01 * t.sin()).collect();
+        let residuals = |x: &[f64]| {
+            Some(
+                t.iter()
+                    .zip(&y)
+                    .map(|(t, y)| (x[0] * t).exp() - y)
+                    .collect(),
+            )
+        };
+        let bounds = [(-5.0, 5.0)];
+        let asked = std::cell::RefCell::new(Vec::new());
+        let jacobian = |x: &[f64], r: &[f64], d: Differences| {
+            asked.borrow_mut().push((x.to_vec(), d));
+            central_jacobian(&residuals, x, r, &bounds)
+        };
+        let lm = Lm {
+            // Until no trial lowers the sum: the last iteration takes no
+            // step, and its Jacobian is the result's.
+            stop: Stop {
+                max_iterations: 100,
+                tolerance: 0.0,
+            },
+            trials: 16,
+            refine: true,
+        };
+        let m = lm.minimise(residuals, jacobian, &[0.0], &bounds).unwrap();
+        assert!((m.x[0] - 0.7).abs() < 1e-2, "{:?}", m.x);
+        let asked = asked.into_inner();
+        assert!(asked.len() >= 2, "{asked:?}");
+        for (k, a) in asked.iter().enumerate() {
+            assert!(!asked[..k].contains(a), "asked twice for {a:?}");
+        }
+        // The result's Jacobian is the last one asked for, at the result.
+        assert_eq!(asked.last().unwrap().0, m.x);
     }
 
     #[test]
